@@ -1,0 +1,363 @@
+//! The feedrate controller of Lin, Lin & Wang (2021), section 2.7, as data
+//! on the generic engine: 6 curvature sets × 5 curvature-variation sets, the
+//! 30 rules R1-R30, min AND and implication, max aggregation, centroid
+//! (eq. 11), output as a fraction of the maximum feed.
+//!
+//! # Choices where the paper is incomplete
+//!
+//! **Membership breakpoints.** Figure 5 is lost; the text only says the sets
+//! are triangular, the curvature is not normalised (1/mm) and the variation
+//! is clipped at 3 and normalised to `[0, 1]`. We chose:
+//!
+//! - curvature κ (1/mm), universe `[0, 3]`, peaks on a roughly geometric
+//!   scale `0, 0.05, 0.15, 0.4, 1, 3` (radii ∞, 20 mm, 6.7 mm, 2.5 mm, 1 mm,
+//!   0.33 mm), each triangle's feet at its neighbours' peaks (a partition:
+//!   degrees sum to 1, so some rule always fires). Geometric because the
+//!   contour error of a machine following a curve grows with `F²·κ`, so equal
+//!   steps in feed need equal *ratios* of curvature. The scale covers the
+//!   sampled test shapes of the paper (2000 points, u step 0.0005): ∞ shape
+//!   κ ≤ 0.23 (median 0.011): ZO..M; trident κ ≤ 3.5 (median 0.10, 90 %
+//!   below 0.93): VS..VB; butterfly median 0.05, 95 % below 0.69, peaks of
+//!   40: every set. The top set saturates at 3 /mm, the paper's clip.
+//! - curvature variation Dκ, normalised `min(Dκ, 3)/3` (see
+//!   [`VariationScale`]), five uniform triangles at `0, 0.25, 0.5, 0.75, 1`
+//!   (end sets mirrored beyond the universe so they are whole triangles).
+//! - feed fraction: seven triangles of equal width, peaks
+//!   `0.10, 0.25, 0.40, 0.55, 0.70, 0.85, 1.00`, feet at the neighbours'
+//!   peaks, universe `[−0.05, 1.20]`: the 101 centroid samples (step
+//!   0.0125) fall on every peak and foot, and every set lies whole inside the
+//!   universe, so TF alone gives 1.0 (a straight line runs at `F_max`) and VLF
+//!   alone 0.10. Equal widths matter: the centroid weights each clipped set by
+//!   its area, so narrow slow sets beside wide fast ones would let a weakly
+//!   firing fast rule outvote a strongly firing slow one (we tried geometric
+//!   peaks: the output then fell from 0.39 to 0.10 within 1.7 % of the Dκ
+//!   range). The geometric curvature scale above already makes the feed fall
+//!   roughly as `κ^(-1/2)` along the rules' diagonal.
+//!
+//! All of it is data ([`SYSTEM`]): a different [`SystemDef`] with the same
+//! shape can be passed to the [`crate::scheduler::Scheduler`].
+//!
+//! **"VVLF" in R25 and R26.** The rules name an output set VVLF that is not
+//! among the seven (Table 6, garbled, agrees with the rule list). We read it
+//! as the slowest set, VLF: these rules fire on a straight or gently curved
+//! stretch (κ ZO/VS) with a very sharp feature ahead (Dκ VH), which is exactly
+//! where the paper wants the tool to "decelerate early before entering the
+//! high-curvature area" (Figure 6). Reading it as a typo for VVHF would make
+//! the tool approach the sharpest features at near full speed. The rule table
+//! stays non-monotone where the paper's is (R27/R28: κ S/M with Dκ VH give
+//! MF, faster than R25/R26); we keep the published rules.
+//!
+//! **No rule fires**: impossible with these partitions; the default output
+//! is 0, i.e. the configured minimum feed.
+
+use crate::fixmath::div_u64_u32;
+use crate::fuzzy::{
+    AndMethod, Controller, Implication, Inference, MembershipFn, OrMethod, Rule, SystemDef, Term,
+    Variable,
+};
+use crate::units::{CurvaturePerMm, Fx};
+use fixed::types::I32F32;
+
+/// Curvature term indices.
+pub mod curvature_terms {
+    /// Zero (straight).
+    pub const ZO: u8 = 0;
+    /// Very small.
+    pub const VS: u8 = 1;
+    /// Small.
+    pub const S: u8 = 2;
+    /// Medium.
+    pub const M: u8 = 3;
+    /// Big.
+    pub const B: u8 = 4;
+    /// Very big.
+    pub const VB: u8 = 5;
+}
+
+/// Curvature-variation term indices.
+pub mod variation_terms {
+    /// Zero change.
+    pub const ZO: u8 = 0;
+    /// Low.
+    pub const L: u8 = 1;
+    /// Medium.
+    pub const M: u8 = 2;
+    /// High.
+    pub const H: u8 = 3;
+    /// Very high.
+    pub const VH: u8 = 4;
+}
+
+/// Feed term indices (fractions of the maximum feed).
+pub mod feed_terms {
+    /// Extremely slow.
+    pub const VLF: u8 = 0;
+    /// Slow.
+    pub const LF: u8 = 1;
+    /// Medium.
+    pub const MF: u8 = 2;
+    /// High.
+    pub const HF: u8 = 3;
+    /// Very high.
+    pub const VHF: u8 = 4;
+    /// Extremely high.
+    pub const VVHF: u8 = 5;
+    /// Top feed.
+    pub const TF: u8 = 6;
+    /// R25/R26's "VVLF", read as the slowest set (see the module docs).
+    pub const VVLF: u8 = VLF;
+}
+
+/// Curvature κ (1/mm): ZO VS S M B VB.
+pub const CURVATURE_TERMS: [Term<'static>; 6] = [
+    Term::new("ZO", MembershipFn::tri("-0.05", "0", "0.05")),
+    Term::new("VS", MembershipFn::tri("0", "0.05", "0.15")),
+    Term::new("S", MembershipFn::tri("0.05", "0.15", "0.4")),
+    Term::new("M", MembershipFn::tri("0.15", "0.4", "1")),
+    Term::new("B", MembershipFn::tri("0.4", "1", "3")),
+    Term::new("VB", MembershipFn::tri("1", "3", "5")),
+];
+
+/// Normalised curvature variation Dκ (`[0, 1]`): ZO L M H VH.
+pub const VARIATION_TERMS: [Term<'static>; 5] = [
+    Term::new("ZO", MembershipFn::tri("-0.25", "0", "0.25")),
+    Term::new("L", MembershipFn::tri("0", "0.25", "0.5")),
+    Term::new("M", MembershipFn::tri("0.25", "0.5", "0.75")),
+    Term::new("H", MembershipFn::tri("0.5", "0.75", "1")),
+    Term::new("VH", MembershipFn::tri("0.75", "1", "1.25")),
+];
+
+/// Feed as a fraction of the maximum feed: VLF LF MF HF VHF VVHF TF.
+pub const FEED_TERMS: [Term<'static>; 7] = [
+    Term::new("VLF", MembershipFn::tri("-0.05", "0.1", "0.25")),
+    Term::new("LF", MembershipFn::tri("0.1", "0.25", "0.4")),
+    Term::new("MF", MembershipFn::tri("0.25", "0.4", "0.55")),
+    Term::new("HF", MembershipFn::tri("0.4", "0.55", "0.7")),
+    Term::new("VHF", MembershipFn::tri("0.55", "0.7", "0.85")),
+    Term::new("VVHF", MembershipFn::tri("0.7", "0.85", "1")),
+    Term::new("TF", MembershipFn::tri("0.85", "1", "1.15")),
+];
+
+const fn r(k: u8, dk: u8, feed: u8) -> Rule<2> {
+    Rule::and([k, dk], feed)
+}
+
+/// R1-R30 of section 2.7.1 B, in the paper's order.
+pub const RULES: [Rule<2>; 30] = {
+    use curvature_terms as K;
+    use feed_terms as F;
+    use variation_terms as D;
+    [
+        r(K::ZO, D::ZO, F::TF),   // R1
+        r(K::VS, D::ZO, F::VVHF), // R2
+        r(K::S, D::ZO, F::VHF),   // R3
+        r(K::M, D::ZO, F::HF),    // R4
+        r(K::B, D::ZO, F::MF),    // R5
+        r(K::VB, D::ZO, F::VLF),  // R6
+        r(K::ZO, D::L, F::TF),    // R7
+        r(K::VS, D::L, F::VVHF),  // R8
+        r(K::S, D::L, F::HF),     // R9
+        r(K::M, D::L, F::HF),     // R10
+        r(K::B, D::L, F::LF),     // R11
+        r(K::VB, D::L, F::VLF),   // R12
+        r(K::ZO, D::M, F::VVHF),  // R13
+        r(K::VS, D::M, F::VHF),   // R14
+        r(K::S, D::M, F::HF),     // R15
+        r(K::M, D::M, F::MF),     // R16
+        r(K::B, D::M, F::LF),     // R17
+        r(K::VB, D::M, F::VLF),   // R18
+        r(K::ZO, D::H, F::VVHF),  // R19
+        r(K::VS, D::H, F::VHF),   // R20
+        r(K::S, D::H, F::HF),     // R21
+        r(K::M, D::H, F::MF),     // R22
+        r(K::B, D::H, F::VLF),    // R23
+        r(K::VB, D::H, F::VLF),   // R24
+        r(K::ZO, D::VH, F::VVLF), // R25 ("VVLF", read as VLF)
+        r(K::VS, D::VH, F::VVLF), // R26 ("VVLF", read as VLF)
+        r(K::S, D::VH, F::MF),    // R27
+        r(K::M, D::VH, F::MF),    // R28
+        r(K::B, D::VH, F::VLF),   // R29
+        r(K::VB, D::VH, F::VLF),  // R30
+    ]
+};
+
+/// The whole controller as data.
+pub const SYSTEM: SystemDef<'static, 2> = SystemDef {
+    name: "lin2021_feed",
+    inference: Inference::Mamdani {
+        implication: Implication::Min,
+    },
+    and: AndMethod::Min,
+    or: OrMethod::Max,
+    inputs: [
+        Variable {
+            name: "curvature",
+            unit: "1/mm",
+            min: Fx::lit("0"),
+            max: Fx::lit("3"),
+            terms: &CURVATURE_TERMS,
+        },
+        Variable {
+            name: "variation",
+            unit: "normalised Dk",
+            min: Fx::lit("0"),
+            max: Fx::lit("1"),
+            terms: &VARIATION_TERMS,
+        },
+    ],
+    output: Variable {
+        name: "feed",
+        unit: "fraction of F_max",
+        min: Fx::lit("-0.05"),
+        max: Fx::lit("1.2"),
+        terms: &FEED_TERMS,
+    },
+    rules: &RULES,
+    default_output: Fx::lit("0"),
+};
+
+/// The compiled controller type: 2 inputs, ≤ 6 terms each, 7 output terms,
+/// 101 centroid samples.
+pub type Lin2021Controller = Controller<'static, 2, 6, 7, 101>;
+
+/// The compiled controller, built at compile time (its output membership
+/// table lives in flash on the target).
+pub static CONTROLLER: Lin2021Controller = match Controller::new(&SYSTEM) {
+    Ok(c) => c,
+    Err(_) => panic!("lin2021::SYSTEM is invalid"),
+};
+
+/// How the curvature variation Dκ is normalised to the controller's `[0, 1]`
+/// (section 2.7.1 A: "normalized to the interval [0, 1] based on the maximum
+/// and minimum values … if the curvature variation remains greater than 3,
+/// [it] is represented by the maximum value of 3").
+///
+/// The paper normalises by the minimum and maximum over the whole path,
+/// which a streaming scheduler cannot know in advance. The default is the
+/// fixed range `[0, 3]` 1/mm (so the same geometry always gets the same
+/// feed); offline tools can emulate the paper with
+/// [`VariationScale::for_path`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct VariationScale {
+    /// Dκ mapped to 0, 1/mm.
+    pub floor: CurvaturePerMm,
+    /// Dκ mapped to 1 (and everything above), 1/mm.
+    pub clip: CurvaturePerMm,
+}
+
+impl Default for VariationScale {
+    fn default() -> Self {
+        VariationScale::PAPER
+    }
+}
+
+impl VariationScale {
+    /// `[0, 3]` 1/mm.
+    pub const PAPER: VariationScale = VariationScale {
+        floor: CurvaturePerMm::ZERO,
+        clip: CurvaturePerMm(I32F32::from_bits(3 << 32)),
+    };
+
+    /// The paper's per-path normalisation: `[min Dκ, min(max Dκ, 3)]` of a
+    /// whole path (offline use).
+    pub fn for_path(
+        min_variation: CurvaturePerMm,
+        max_variation: CurvaturePerMm,
+    ) -> VariationScale {
+        let clip = max_variation.min(Self::PAPER.clip);
+        let floor = min_variation.min(clip);
+        VariationScale { floor, clip }
+    }
+
+    /// Whether `0 <= floor < clip <= 32767` 1/mm.
+    pub fn is_valid(&self) -> bool {
+        self.floor.0 >= 0 && self.floor < self.clip && self.clip.0 <= I32F32::from_num(32767)
+    }
+
+    /// `(clamp(Dκ, floor, clip) − floor) / (clip − floor)` in Q16.16. An
+    /// invalid scale (see [`Self::is_valid`]) gives 1 for any Dκ above the
+    /// floor.
+    pub fn normalise(&self, variation: CurvaturePerMm) -> Fx {
+        let span = self.clip.0.to_bits().saturating_sub(self.floor.0.to_bits());
+        let v = variation
+            .0
+            .to_bits()
+            .clamp(self.floor.0.to_bits(), self.clip.0.to_bits())
+            - self.floor.0.to_bits();
+        if span <= 0 || span >= 1 << 47 {
+            return if v > 0 { Fx::ONE } else { Fx::ZERO };
+        }
+        // Drop low bits until the divisor fits 32 bits (hardware division).
+        let k = (64 - span.leading_zeros() as i32 - 32).max(0);
+        let (v, span) = ((v >> k) as u64, (span >> k) as u32);
+        let q = div_u64_u32((v << 16) + (span / 2) as u64, span);
+        Fx::from_bits(q.min(1 << 16) as i32)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn feed(k: f64, dk_norm: f64) -> f64 {
+        CONTROLLER
+            .evaluate([Fx::from_num(k), Fx::from_num(dk_norm)])
+            .output
+            .to_num()
+    }
+
+    #[test]
+    fn straight_path_runs_at_full_feed_and_sharp_curves_slow() {
+        assert_eq!(feed(0.0, 0.0), 1.0);
+        assert!((feed(3.0, 1.0) - 0.10).abs() < 1e-4);
+        // Along ZO/ZO..VB/ZO the feed falls monotonically.
+        let mut last = 2.0;
+        for i in 0..=300 {
+            let f = feed(i as f64 / 100.0, 0.0);
+            assert!(f <= last + 1e-9, "κ = {}", i as f64 / 100.0);
+            last = f;
+        }
+    }
+
+    #[test]
+    fn every_input_fires_some_rule() {
+        for i in 0..=60 {
+            for j in 0..=20 {
+                let e = CONTROLLER
+                    .evaluate([Fx::from_num(i as f64 * 0.05), Fx::from_num(j as f64 * 0.05)]);
+                assert!(e.fired);
+                assert!(e.output >= Fx::lit("0.1") - Fx::from_bits(2) && e.output <= Fx::ONE);
+            }
+        }
+    }
+
+    #[test]
+    fn sharp_feature_ahead_slows_a_straight() {
+        assert!(
+            (feed(0.0, 1.0) - 0.10).abs() < 1e-4,
+            "R25: VVLF read as VLF"
+        );
+        assert!(feed(0.0, 1.0) < feed(0.0, 0.0));
+    }
+
+    #[test]
+    fn variation_scale() {
+        let s = VariationScale::PAPER;
+        assert_eq!(s.normalise(CurvaturePerMm::from_f64(1.5)), Fx::lit("0.5"));
+        assert_eq!(s.normalise(CurvaturePerMm::from_f64(30.0)), Fx::ONE);
+        assert_eq!(s.normalise(CurvaturePerMm::MAX), Fx::ONE);
+        assert_eq!(s.normalise(CurvaturePerMm::ZERO), Fx::ZERO);
+        let p = VariationScale::for_path(
+            CurvaturePerMm::from_f64(0.01),
+            CurvaturePerMm::from_f64(0.21),
+        );
+        assert!(p.is_valid());
+        assert_eq!(p.normalise(CurvaturePerMm::from_f64(0.21)), Fx::ONE);
+        assert!(!VariationScale {
+            floor: CurvaturePerMm::ZERO,
+            clip: CurvaturePerMm::ZERO
+        }
+        .is_valid());
+    }
+}

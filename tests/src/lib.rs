@@ -1,0 +1,1 @@
+//! System tests across crates.
