@@ -206,8 +206,8 @@ impl Sf {
         }
     }
 
-    /// The value as `f64` (tests and host reports).
-    #[cfg(any(test, feature = "std"))]
+    /// The value as `f64` (tests).
+    #[cfg(test)]
     pub(crate) fn to_f64(self) -> f64 {
         self.mant as f64 * 2f64.powi(self.exp)
     }

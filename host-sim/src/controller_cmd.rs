@@ -1,0 +1,141 @@
+//! `host-sim controller`: export the controller, evaluate it on CSV inputs.
+
+use std::io::Write;
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use fuzzy_core::fuzzy::export::{write_fcl, write_fis};
+use fuzzy_core::lin2021::{CONTROLLER, SYSTEM};
+use fuzzy_core::units::Fx;
+
+/// `controller` subcommands.
+#[derive(clap::Subcommand, Debug)]
+pub enum Command {
+    /// Write Lin et al.'s controller as a MATLAB/Octave `.fis` file or as
+    /// IEC 61131-7 FCL (exact Q16.16 parameters).
+    Export {
+        /// `fis` (MATLAB, Octave fuzzy-logic-toolkit, fuzzylite) or `fcl`
+        /// (IEC 61131-7; jFuzzyLogic, fuzzylite).
+        #[arg(long, value_enum, default_value_t = Format::Fis)]
+        format: Format,
+        /// Output file (default: standard output).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+    },
+    /// Evaluate the fixed-point controller on a CSV of inputs
+    /// (`curvature_per_mm,variation_normalised` per row) and print the feed
+    /// fraction, to compare with MATLAB's `evalfis` or another tool.
+    Eval {
+        /// Input CSV; a header row is skipped.
+        input: PathBuf,
+        /// `exact` (the integral, our scheduler's) or `sampled` (101 samples,
+        /// MATLAB's and Octave's `evalfis` default).
+        #[arg(long, value_enum, default_value_t = Centroid::Exact)]
+        centroid: Centroid,
+        /// Output CSV (default: standard output).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+    },
+}
+
+/// Export format.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub enum Format {
+    /// MATLAB/Octave `.fis`.
+    Fis,
+    /// IEC 61131-7 Fuzzy Control Language.
+    Fcl,
+}
+
+/// Centroid definition.
+#[derive(clap::ValueEnum, Clone, Copy, Debug)]
+pub enum Centroid {
+    /// Exact integral.
+    Exact,
+    /// 101 equally spaced samples (MATLAB).
+    Sampled,
+}
+
+fn output(path: &Option<PathBuf>) -> Result<Box<dyn Write>> {
+    Ok(match path {
+        Some(p) => {
+            Box::new(std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?)
+        }
+        None => Box::new(std::io::stdout().lock()),
+    })
+}
+
+/// Run a `controller` subcommand.
+pub fn run(cmd: &Command) -> Result<()> {
+    match cmd {
+        Command::Export {
+            format,
+            output: path,
+        } => {
+            let mut text = String::new();
+            match format {
+                Format::Fis => write_fis(&mut text, &SYSTEM)?,
+                Format::Fcl => write_fcl(&mut text, &SYSTEM)?,
+            }
+            output(path)?.write_all(text.as_bytes())?;
+        }
+        Command::Eval {
+            input,
+            centroid,
+            output: path,
+        } => {
+            let text = std::fs::read_to_string(input)
+                .with_context(|| format!("reading {}", input.display()))?;
+            let mut out = output(path)?;
+            writeln!(out, "curvature_per_mm,variation,fraction,fired")?;
+            let (lo0, hi0): (f64, f64) =
+                (SYSTEM.inputs[0].min.to_num(), SYSTEM.inputs[0].max.to_num());
+            let (lo1, hi1): (f64, f64) =
+                (SYSTEM.inputs[1].min.to_num(), SYSTEM.inputs[1].max.to_num());
+            let mut clamped = 0usize;
+            for (i, line) in text.lines().enumerate() {
+                let line_no = i + 1;
+                let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+                if line.trim().is_empty()
+                    || line.starts_with('#')
+                    || (i == 0 && fields[0].parse::<f64>().is_err())
+                {
+                    continue;
+                }
+                if fields.len() != 2 {
+                    bail!(
+                        "{}:{line_no}: expected curvature,variation",
+                        input.display()
+                    );
+                }
+                let parse = |s: &str| -> Result<Fx> {
+                    let v: f64 = s.parse().with_context(|| {
+                        format!("{}:{line_no}: {s:?} is not a number", input.display())
+                    })?;
+                    Fx::checked_from_num(v).with_context(|| {
+                        format!(
+                            "{}:{line_no}: {v} outside the Q16.16 range",
+                            input.display()
+                        )
+                    })
+                };
+                let x = [parse(fields[0])?, parse(fields[1])?];
+                let (k, d): (f64, f64) = (x[0].to_num(), x[1].to_num());
+                if k < lo0 || k > hi0 || d < lo1 || d > hi1 {
+                    clamped += 1;
+                }
+                let e = match centroid {
+                    Centroid::Exact => CONTROLLER.evaluate(x),
+                    Centroid::Sampled => CONTROLLER.evaluate_sampled(x),
+                };
+                writeln!(out, "{k},{d},{},{}", e.output.to_num::<f64>(), e.fired)?;
+            }
+            if clamped > 0 {
+                eprintln!(
+                    "note: {clamped} inputs outside the universes were clamped (MATLAB evaluates them unclamped; compare inside)"
+                );
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# One-time set-up of a fresh Debian/Ubuntu machine with rustup (idempotent):
+# the Cortex-M4F target, QEMU for the firmware tests, GNU Octave with its
+# fuzzy-logic-toolkit for the cross-check of the exported controller.
+set -euo pipefail
+
+log() { printf '\033[1m[setup]\033[0m %s\n' "$*" >&2; }
+as_root() { if [ "$(id -u)" = 0 ]; then "$@"; else sudo "$@"; fi; }
+
+if ! rustup target list --installed | grep -qx thumbv7em-none-eabihf; then
+    log "rustup target add thumbv7em-none-eabihf"
+    rustup target add thumbv7em-none-eabihf
+fi
+if ! rustup component list --installed 2>/dev/null | grep -q '^llvm-tools'; then
+    log "rustup component add llvm-tools (size reports)"
+    rustup component add llvm-tools || log "llvm-tools unavailable: size reports use the cargo-installed fallback"
+fi
+
+missing=()
+command -v qemu-system-arm >/dev/null || missing+=(qemu-system-arm)
+command -v octave-cli >/dev/null || missing+=(octave octave-fuzzy-logic-toolkit)
+if command -v octave-cli >/dev/null && ! octave-cli --no-gui -q --eval 'pkg load fuzzy-logic-toolkit' >/dev/null 2>&1; then
+    missing+=(octave-fuzzy-logic-toolkit)
+fi
+if [ ${#missing[@]} -gt 0 ]; then
+    log "apt-get install ${missing[*]}"
+    as_root apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive as_root apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+log "ready"
