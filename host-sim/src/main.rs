@@ -5,8 +5,9 @@
 //! Every subcommand calls `fuzzy-core`, the same code the firmware runs.
 
 mod controller_cmd;
-mod path_csv;
 mod schedule_cmd;
+
+use host_sim::shapes;
 
 use clap::{Parser, Subcommand};
 
@@ -26,6 +27,12 @@ enum Command {
     /// Export or evaluate the fuzzy controller.
     #[command(subcommand)]
     Controller(controller_cmd::Command),
+    /// Write one of the paper's test shapes (NURBS, 2001 points) as CSV.
+    Shape {
+        /// Which shape.
+        #[arg(value_enum)]
+        shape: shapes::Shape,
+    },
 }
 
 fn main() -> std::process::ExitCode {
@@ -33,6 +40,16 @@ fn main() -> std::process::ExitCode {
     let result = match cli.command {
         Command::Schedule(args) => schedule_cmd::run(&args),
         Command::Controller(cmd) => controller_cmd::run(&cmd),
+        Command::Shape { shape } => {
+            println!(
+                "# {} (Lin et al. 2021), 2001 points, u step 0.0005\nx,y,z",
+                shape.name()
+            );
+            for p in shape.points() {
+                println!("{:.9},{:.9},{:.9}", p[0], p[1], p[2]);
+            }
+            Ok(())
+        }
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
