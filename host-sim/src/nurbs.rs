@@ -42,7 +42,7 @@ impl Nurbs {
         if knots.windows(2).any(|w| w[1] < w[0]) {
             bail!("knots must be non-decreasing");
         }
-        if weights.iter().any(|w| !(*w > 0.0)) {
+        if weights.iter().any(|w| w.is_nan() || *w <= 0.0) {
             bail!("weights must be positive");
         }
         Ok(Nurbs {
