@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # One-time set-up of a fresh Debian/Ubuntu machine with rustup (idempotent):
-# the Cortex-M4F target, QEMU for the firmware tests, GNU Octave with its
+# the Cortex-M4F target, QEMU for the firmware tests (and python3 +
+# binutils for the firmware's size/cost/panic checks), GNU Octave with its
 # fuzzy-logic-toolkit for the cross-check of the exported controller.
 set -euo pipefail
 
@@ -18,6 +19,9 @@ fi
 
 missing=()
 command -v qemu-system-arm >/dev/null || missing+=(qemu-system-arm)
+# Firmware checks (firmware/scripts/check.py): python3, addr2line.
+command -v python3 >/dev/null || missing+=(python3)
+command -v addr2line >/dev/null || missing+=(binutils)
 command -v octave-cli >/dev/null || missing+=(octave octave-fuzzy-logic-toolkit)
 if command -v octave-cli >/dev/null && ! octave-cli --no-gui -q --eval 'pkg load fuzzy-logic-toolkit' >/dev/null 2>&1; then
     missing+=(octave-fuzzy-logic-toolkit)

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Every test, from a fresh machine: set-up, formatting, lints, the no_std
-# build of the core for the Cortex-M4F, and all tests (including Octave
-# evaluating our exported controller).
+# build of the core for the Cortex-M4F, the firmware (build, lints, size,
+# panic and cost checks in QEMU), and all tests (including Octave evaluating
+# our exported controller and the firmware's system tests in QEMU).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/setup.sh
@@ -10,6 +11,7 @@ step() { printf '\n\033[1m== %s\033[0m\n' "$*"; }
 
 step "format"
 cargo fmt --all --check
+(cd firmware && cargo fmt --check)
 
 step "lints"
 cargo clippy --workspace --all-targets -q -- -D warnings
@@ -17,5 +19,22 @@ cargo clippy --workspace --all-targets -q -- -D warnings
 step "fuzzy-core builds for thumbv7em-none-eabihf (no_std, no alloc)"
 cargo build -q -p fuzzy-core --target thumbv7em-none-eabihf --release
 
-step "tests"
-FUZZY_REQUIRE_OCTAVE=1 cargo test --workspace -q
+# The firmware is its own workspace with its own target dir and triple
+# (firmware/.cargo/config.toml); a caller's CARGO_TARGET_DIR must not move it.
+fw() { (cd firmware && env -u CARGO_TARGET_DIR "$@"); }
+
+step "firmware: release build for thumbv7em-none-eabihf, lints"
+fw cargo build --release -q
+fw cargo clippy --release -q -- -D warnings
+
+step "firmware: no reachable panic (panic-never link check)"
+python3 firmware/scripts/check.py panic
+
+step "firmware: flash <= 48 KiB, static RAM <= 12 KiB, <= +10 % on firmware/baseline/size.txt"
+python3 firmware/scripts/check.py size
+
+step "firmware: instructions per point and per tick in QEMU -icount, <= +10 % on firmware/baseline/cost.txt"
+python3 firmware/scripts/check.py cost
+
+step "tests (including the firmware in QEMU: tests/tests/firmware_qemu.rs)"
+FUZZY_REQUIRE_OCTAVE=1 FUZZY_REQUIRE_QEMU=1 cargo test --workspace -q

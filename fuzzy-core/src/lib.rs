@@ -42,8 +42,10 @@ pub mod average;
 pub mod curvature;
 mod fixmath;
 pub mod fuzzy;
+pub mod interpolator;
 pub mod lin2021;
 pub mod lookahead;
+pub mod planner;
 #[cfg(feature = "std")]
 pub mod reference;
 pub mod scheduler;

@@ -283,7 +283,8 @@ impl VariationScale {
         let v = variation
             .0
             .to_bits()
-            .clamp(self.floor.0.to_bits(), self.clip.0.to_bits())
+            .max(self.floor.0.to_bits())
+            .min(self.clip.0.to_bits())
             - self.floor.0.to_bits();
         if span <= 0 || span >= 1 << 47 {
             return if v > 0 { Fx::ONE } else { Fx::ZERO };

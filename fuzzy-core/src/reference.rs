@@ -366,3 +366,45 @@ pub fn schedule<const NI: usize>(
     }
     out
 }
+
+/// The offline time-optimal traversal of a planned path under a tangential
+/// acceleration limit (no jerk limit): forward-backward passes of
+/// `v² <= v_next² + 2·A·ds` over a grid of step `ds_mm`, with the planner's
+/// point ceilings at the points and its segment caps along the segments,
+/// starting and ending at rest. The cycle time in seconds.
+///
+/// `points`: `(s_mm, ceiling_mm_s, cap_mm_s)` along the path (the cap of the
+/// segment after the point).
+pub fn time_optimal_s(points: &[(f64, f64, f64)], accel_mm_s2: f64, ds_mm: f64) -> f64 {
+    let Some(&(s_end, _, _)) = points.last() else {
+        return 0.0;
+    };
+    let m = ((s_end / ds_mm).ceil() as usize).max(1) + 1;
+    let h = s_end / (m - 1) as f64;
+    let mut cap = vec![f64::INFINITY; m];
+    let mut seg = 0;
+    for (k, c) in cap.iter_mut().enumerate() {
+        let s = k as f64 * h;
+        while seg + 1 < points.len() && points[seg + 1].0 <= s {
+            seg += 1;
+        }
+        *c = points[seg].2;
+    }
+    for &(s, ceil, _) in points {
+        let k = ((s / h).round() as usize).min(m - 1);
+        cap[k] = cap[k].min(ceil);
+    }
+    let mut v2: Vec<f64> = cap.iter().map(|c| c * c).collect();
+    v2[0] = 0.0;
+    v2[m - 1] = 0.0;
+    for k in (0..m - 1).rev() {
+        v2[k] = v2[k].min(v2[k + 1] + 2.0 * accel_mm_s2 * h);
+    }
+    for k in 1..m {
+        v2[k] = v2[k].min(v2[k - 1] + 2.0 * accel_mm_s2 * h);
+    }
+    let v: Vec<f64> = v2.iter().map(|x| x.sqrt()).collect();
+    v.windows(2)
+        .map(|w| h / ((w[0] + w[1]) / 2.0).max(1e-12))
+        .sum()
+}

@@ -1,6 +1,27 @@
-//! `host-sim` as a library: the built-in test shapes, path input, and the
-//! pieces the command-line tool is made of, for system tests and other tools.
+//! `host-sim` as a library: toolpaths in (the paper's shapes, G-code, CSV),
+//! fuzzy-core's scheduler and the methods it competes with, simulated
+//! machines (FANUC-like acc/dec, Cho et al.'s X-Y servo), the contour error
+//! and kinematics of the predicted motion, and the paper-style table and
+//! plots.
+//!
+//! ```text
+//! toolpath ─► method (constant | chord-error | fuzzy | fuzzy-no-filter) ─► feed per block
+//!          ─► interpolation every Ts ─► machine ─► actual motion ─► metrics, plots
+//! ```
 
+pub mod compare;
+pub mod config;
+pub mod contour_error;
+pub mod gcode;
+pub mod inputs;
+pub mod interpolation;
+pub mod machine;
+pub mod methods;
+pub mod metrics;
 pub mod nurbs;
 pub mod path_csv;
+pub mod plots;
+pub mod report;
 pub mod shapes;
+pub mod simulate;
+pub mod toolpath;

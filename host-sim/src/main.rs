@@ -1,17 +1,26 @@
-//! `host-sim`: fuzzy-core's feed scheduler on a PC. Recorded toolpaths in,
-//! scheduled feeds out; the controller exported for MATLAB/Octave/fuzzylite
-//! and evaluated on CSV inputs for comparison with those tools.
+//! `host-sim`: fuzzy-core's feed scheduler on a PC. Toolpaths in (the
+//! paper's shapes, G-code, CSV), feeds scheduled by fuzzy-core and by the
+//! methods it competes with, the motion predicted on simulated machines,
+//! and the paper-style comparison table and plots out.
 //!
-//! Every subcommand calls `fuzzy-core`, the same code the firmware runs.
+//! Every scheduling subcommand calls `fuzzy-core`, the same code the
+//! firmware runs.
 
+mod common;
+mod compare_cmd;
 mod controller_cmd;
 mod schedule_cmd;
+mod simulate_cmd;
 
+use std::path::PathBuf;
+
+use host_sim::config::SimConfig;
 use host_sim::shapes;
 
 use clap::{Parser, Subcommand};
 
-/// Fuzzy feedrate scheduling (Lin, Lin & Wang 2021) on recorded toolpaths.
+/// Fuzzy feedrate scheduling (Lin, Lin & Wang 2021) on recorded toolpaths
+/// and simulated machines.
 #[derive(Parser, Debug)]
 #[command(name = "host-sim", version, about, long_about = None)]
 struct Cli {
@@ -21,6 +30,15 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
+    /// The paper-style comparison (Tables 10-12): shapes/files × methods ×
+    /// maximum feeds on one machine, the fuzzy scheduler vs a constant feed
+    /// at equal cycle time and at equal max contour error, and plots.
+    /// Writes table.txt, table.csv, claims.csv, report.json, config.toml and
+    /// plots/ to the results directory.
+    Compare(compare_cmd::Args),
+    /// One toolpath, method, maximum feed and machine: motion and schedule
+    /// as CSV, metrics as JSON, plots.
+    Simulate(simulate_cmd::Args),
     /// Schedule the feed along a path given as CSV (x,y,z in mm, optional
     /// feed cap in mm/min) and write one row per point.
     Schedule(schedule_cmd::Args),
@@ -33,11 +51,25 @@ enum Command {
         #[arg(value_enum)]
         shape: shapes::Shape,
     },
+    /// Turn a G-code or CSV toolpath into a CSV point list (x,y,z in mm and
+    /// the programmed feed in mm/min: what `schedule` and `simulate` read).
+    Toolpath {
+        /// G-code (.nc .ngc .gcode .tap .cnc .g) or CSV file.
+        input: PathBuf,
+        /// TOML configuration (its `[gcode]` table: chord tolerance, rapid
+        /// feed, start position).
+        #[arg(long, value_name = "FILE")]
+        config: Option<PathBuf>,
+    },
+    /// Print the default configuration (every key of the TOML file).
+    Config,
 }
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Compare(args) => compare_cmd::run(&args),
+        Command::Simulate(args) => simulate_cmd::run(&args),
         Command::Schedule(args) => schedule_cmd::run(&args),
         Command::Controller(cmd) => controller_cmd::run(&cmd),
         Command::Shape { shape } => {
@@ -50,6 +82,11 @@ fn main() -> std::process::ExitCode {
             }
             Ok(())
         }
+        Command::Toolpath { input, config } => toolpath(&input, config.as_deref()),
+        Command::Config => {
+            print!("{}", SimConfig::default().to_toml());
+            Ok(())
+        }
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
@@ -58,4 +95,27 @@ fn main() -> std::process::ExitCode {
             std::process::ExitCode::FAILURE
         }
     }
+}
+
+fn toolpath(input: &std::path::Path, config: Option<&std::path::Path>) -> anyhow::Result<()> {
+    let c = match config {
+        Some(p) => SimConfig::read(p)?,
+        None => SimConfig::default(),
+    };
+    let t = host_sim::inputs::load(input, &c.gcode)?;
+    let mut out = String::new();
+    out.push_str(&format!(
+        "# {} from {}, {} points, {:.3} mm; 4th column: programmed feed, mm/min\nx,y,z,feed\n",
+        t.name,
+        input.display(),
+        t.len(),
+        t.length_mm()
+    ));
+    for i in 0..t.len() {
+        let p = t.points[i];
+        let f = t.feed_caps[i].map_or(String::new(), |f| format!("{f}"));
+        out.push_str(&format!("{},{},{},{}\n", p[0], p[1], p[2], f));
+    }
+    print!("{out}");
+    Ok(())
 }

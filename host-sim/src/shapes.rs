@@ -94,6 +94,13 @@ impl Shape {
     pub fn points(self) -> Vec<[f64; 3]> {
         self.curve().sample(PAPER_POINTS)
     }
+
+    /// The sampled shape as a toolpath named after the shape. The closed
+    /// shapes' last point equals the first: it stays (the path ends where it
+    /// started).
+    pub fn toolpath(self) -> anyhow::Result<crate::toolpath::Toolpath> {
+        crate::toolpath::Toolpath::from_points(self.name(), self.points())
+    }
 }
 
 /// Butterfly control points, mm.

@@ -427,7 +427,7 @@ impl<'a, const NI: usize, const NT: usize, const NO: usize, const S: usize>
         for i in 0..NI {
             let n = self.input_terms[i] as usize;
             let (lo, hi) = self.input_range[i];
-            let x = inputs[i].to_bits().clamp(lo, hi);
+            let x = inputs[i].to_bits().max(lo).min(hi);
             let mfs = &self.inputs[i];
             let mut j = 0;
             while j + 1 < n && j < NT && mfs[j].upper_end() < x {
@@ -518,7 +518,7 @@ impl<'a, const NI: usize, const NT: usize, const NO: usize, const S: usize>
                 else {
                     continue;
                 };
-                let x = x.to_bits().clamp(lo, hi);
+                let x = x.to_bits().max(lo).min(hi);
                 // In a partition only the term whose span holds x and the next
                 // can be non-zero: skip to it.
                 let first = if self.partition.get(i).copied().unwrap_or(false) {
@@ -583,7 +583,7 @@ impl<'a, const NI: usize, const NT: usize, const NO: usize, const S: usize>
                         .zip(self.input_terms.iter()),
                 ),
             ) {
-                let x = x.to_bits().clamp(lo, hi);
+                let x = x.to_bits().max(lo).min(hi);
                 for (m, mf) in row.iter_mut().zip(mfs.iter()).take(n as usize) {
                     *m = mf.degree(x);
                 }
@@ -635,12 +635,17 @@ impl<'a, const NI: usize, const NT: usize, const NO: usize, const S: usize>
                     return default;
                 }
                 let half = den / 2;
+                // (checked: no overflow trap on i64::MIN / −1)
                 let q = if num >= 0 {
-                    (num + half) / den
+                    num.saturating_add(half).checked_div(den)
                 } else {
-                    (num - half) / den
+                    num.saturating_sub(half).checked_div(den)
                 };
-                saturate_i32(q)
+                saturate_i32(q.unwrap_or(if (num < 0) == (den < 0) {
+                    i64::MAX
+                } else {
+                    i64::MIN
+                }))
             }
             Inference::Sugeno {
                 output: SugenoOutput::WeightedSum,

@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# Cargo runner (see .cargo/config.toml): runs a firmware ELF in QEMU's
+# netduinoplus2 (STM32F405) under a timeout, with semihosting so that the
+# firmware's exit status becomes QEMU's.
+#
+#   FW_TIMEOUT=secs   wall-clock limit (default 600; 0 = none)
+#   FW_SERIAL=spec    where USART1 goes (default tcp::7878,server=on,wait=off:
+#                     connect a host there to stream a path)
+#   FW_ICOUNT=1       -icount shift=0 (1 instruction = 1 ns, deterministic);
+#                     always on for the `cost` benchmark
+#
+# defmt output (semihosting) is decoded with defmt-print when it is
+# installed (`cargo install defmt-print`), else saved raw next to the ELF.
+set -euo pipefail
+elf=$1
+shift
+timeout_s=${FW_TIMEOUT:-600}
+serial=${FW_SERIAL:-tcp::7878,server=on,wait=off}
+args=(-cpu cortex-m4 -machine netduinoplus2 -display none -monitor none
+      -semihosting-config enable=on,target=native -serial "$serial")
+name=$(basename "$elf")
+if [ "${FW_ICOUNT:-0}" = 1 ] || [ "$name" = cost ]; then
+    args+=(-icount shift=0)
+fi
+run() {
+    if [ "$timeout_s" = 0 ]; then "$@"; else timeout --foreground -k 5 "$timeout_s" "$@"; fi
+}
+if [ "$name" = cost ]; then
+    # Plain-text report, no defmt stream.
+    exec > >(cat) 2>&1
+    run qemu-system-arm "${args[@]}" -kernel "$elf" "$@"
+    exit $?
+fi
+echo "[qemu-run] $name: USART1 on ${serial} (stream a path with: cargo run -p system-tests --bin stream -- PATH.csv)" >&2
+if command -v defmt-print >/dev/null; then
+    set -o pipefail
+    run qemu-system-arm "${args[@]}" -kernel "$elf" "$@" | defmt-print -e "$elf"
+else
+    echo "[qemu-run] defmt-print not installed: raw defmt log in $elf.defmt (cargo install defmt-print)" >&2
+    run qemu-system-arm "${args[@]}" -kernel "$elf" "$@" > "$elf.defmt"
+fi

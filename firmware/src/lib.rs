@@ -1,0 +1,71 @@
+//! Firmware of the fuzzy feedrate motion controller: the parts shared by
+//! the RTIC application (`src/main.rs`) and the cost benchmark
+//! (`src/bin/cost.rs`).
+//!
+//! | module | what |
+//! |---|---|
+//! | [`board`] | the chip and pins: clocks, USART1, step/dir GPIO (one file per board) |
+//! | [`config`] | build-time settings: tick rate, acceleration, steps/mm, queue sizes |
+//! | [`motion`] | the scheduler feeding the interpolator, and the per-tick work |
+//! | [`stepper`] | step/direction outputs on `embedded-hal` pins |
+//! | [`measure`] | SysTick cycle counter, stack high-water mark |
+#![no_std]
+#![deny(missing_docs)]
+
+pub mod board;
+pub mod config;
+pub mod measure;
+pub mod motion;
+pub mod stepper;
+
+#[cfg(feature = "qemu")]
+mod logger;
+#[cfg(all(feature = "board", not(feature = "qemu")))]
+use defmt_rtt as _;
+
+defmt::timestamp!("{=u32:us}", measure::uptime_us());
+
+/// Leave QEMU with a failure status (semihosting); on a board, stop.
+pub fn fail() -> ! {
+    #[cfg(feature = "qemu")]
+    cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_FAILURE);
+    cortex_m::asm::udf()
+}
+
+/// Leave QEMU with a success status (semihosting); on a board, idle.
+pub fn exit_success() -> ! {
+    #[cfg(feature = "qemu")]
+    cortex_m_semihosting::debug::exit(cortex_m_semihosting::debug::EXIT_SUCCESS);
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+#[cfg(not(feature = "panic-never"))]
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    // Location only: formatting the message would pull in `core::fmt`.
+    if let Some(l) = info.location() {
+        defmt::error!("panic at {=str}:{=u32}", l.file(), l.line());
+    }
+    fail()
+}
+
+/// With feature `panic-never` any panic path left in the image fails the
+/// link: the handler calls a function that exists nowhere.
+#[cfg(feature = "panic-never")]
+#[panic_handler]
+fn panic(_: &core::panic::PanicInfo) -> ! {
+    extern "Rust" {
+        #[link_name = "\n\nERROR: a panic path survived into the release build (panic-never check)\n\n"]
+        fn panic_path_found() -> !;
+    }
+    // SAFETY: never runs: the symbol does not exist, so the link fails if
+    // this handler is reachable.
+    unsafe { panic_path_found() }
+}
+
+#[cortex_m_rt::exception]
+unsafe fn HardFault(_frame: &cortex_m_rt::ExceptionFrame) -> ! {
+    fail()
+}

@@ -1,0 +1,250 @@
+//! Machine limits, and their compiled per-tick form.
+
+use fixed::types::I32F32;
+
+use super::q;
+use crate::units::{FeedMmPerMin, Fx};
+
+/// The machine's limits and the planner's settings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MotionConfig {
+    /// Interpolation period `Ts`, µs (1000 = 1 kHz).
+    pub tick_us: u32,
+    /// Largest programmed feed the planner will see (sets the reach of
+    /// corner limits; larger feeds are capped to it), mm/min.
+    pub feed_max: FeedMmPerMin,
+    /// Per-axis maximum velocity (X, Y, Z), mm/min.
+    pub axis_speed_max: [FeedMmPerMin; 3],
+    /// Per-axis maximum acceleration (X, Y, Z), mm/s².
+    pub axis_accel_max_mm_s2: [u32; 3],
+    /// Maximum tangential jerk, mm/s³.
+    pub jerk_max_mm_s3: u32,
+    /// Largest deviation of the straight move between two interpolation
+    /// points from a curve of the path's curvature (chord error δ), mm.
+    pub chord_tolerance_mm: I32F32,
+    /// Share of each axis' acceleration given to tangential acceleration;
+    /// the rest is reserved for the changes of direction at the path's
+    /// vertices (`0 < ρ < 1`, default 0.5).
+    pub tangential_share: Fx,
+}
+
+impl Default for MotionConfig {
+    /// 1 kHz, 5000 mm/min, 10 m/min and 2000 mm/s² per axis, 50 000 mm/s³,
+    /// chord tolerance 1 µm, ρ = 0.5.
+    fn default() -> Self {
+        MotionConfig {
+            tick_us: 1000,
+            feed_max: FeedMmPerMin::from_int(5000),
+            axis_speed_max: [FeedMmPerMin::from_int(10_000); 3],
+            axis_accel_max_mm_s2: [2000; 3],
+            jerk_max_mm_s3: 50_000,
+            chord_tolerance_mm: I32F32::from_bits(4_294_967), // 0.001 mm
+            tangential_share: Fx::lit("0.5"),
+        }
+    }
+}
+
+/// Why a [`MotionConfig`] is refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum ConfigError {
+    /// Tick period outside 50 µs-100 ms.
+    TickPeriod,
+    /// A speed, acceleration or jerk limit is zero, negative or too large.
+    Limit,
+    /// Chord tolerance not in (0, 1] mm.
+    ChordTolerance,
+    /// Tangential share not in (0, 1).
+    Share,
+    /// The limits are too fine or too coarse for the tick period: the
+    /// jerk per tick (`J·Ts³`) is below 2^-24 mm, or the largest feed per
+    /// tick exceeds 16 mm. Lower (or raise) the tick rate.
+    Resolution,
+}
+
+impl core::fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            ConfigError::TickPeriod => "tick period must be 50 µs to 100 ms",
+            ConfigError::Limit => "speed, acceleration and jerk limits must be positive and finite",
+            ConfigError::ChordTolerance => "chord tolerance must be in (0, 1] mm",
+            ConfigError::Share => "tangential share must be in (0, 1)",
+            ConfigError::Resolution => {
+                "jerk per tick below 2^-24 mm or feed per tick above 16 mm: change the tick rate"
+            }
+        })
+    }
+}
+
+/// The limits in per-tick units (raw Q32): mm, mm/tick, mm/tick², mm/tick³.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Limits {
+    /// Feed bound.
+    pub feed_max: i64,
+    /// Per-axis speed.
+    pub axis_speed: [i64; 3],
+    /// Per-axis acceleration reserved for direction changes, `(1 − ρ)·A_a`.
+    pub corner_accel: [i64; 3],
+    /// Tangential acceleration limit `ρ·min_a A_a`.
+    pub accel: i64,
+    /// Deceleration of the envelope (`0.95 ·` [`Self::accel`]).
+    pub envelope_decel: i64,
+    /// Tangential jerk.
+    pub jerk: i64,
+    /// Chord tolerance, mm.
+    pub chord: i64,
+    /// Reach of a point's corner limit (2.5 ticks at `feed_max`), mm.
+    pub reach: i64,
+    /// Creep speed through a stop point (`J·Ts²/2`): arriving no faster, the
+    /// final deceleration is at most `J·Ts`, so stopping is jerk-limited.
+    pub creep: i64,
+    /// mm/min (raw I32F32) → mm/tick (Q32): `× tick_us / 60e6`, as a Q48
+    /// factor (a multiplication instead of a 128-bit division per point).
+    pub feed_to_tick_q48: i64,
+    /// mm/tick (Q32) → mm/min: `× 60e6 / tick_us`, Q16.
+    pub tick_to_feed_q16: i64,
+    /// The tick period, µs.
+    pub tick_us: u32,
+}
+
+/// `value × tick_us^k / (den · 10^(6k))` in Q32, for converting to per-tick
+/// units.
+fn per_tick(value_q32: i128, tick_us: u32, k: u32, den: i128) -> i64 {
+    let mut num = value_q32;
+    let mut d = den;
+    for _ in 0..k {
+        num *= tick_us as i128;
+        d *= 1_000_000;
+    }
+    (num / d).clamp(0, i64::MAX as i128) as i64
+}
+
+impl MotionConfig {
+    /// Check and compile.
+    pub(crate) fn compile(&self) -> Result<Limits, ConfigError> {
+        if !(50..=100_000).contains(&self.tick_us) {
+            return Err(ConfigError::TickPeriod);
+        }
+        let share = self.tangential_share.to_bits() as i64; // Q16
+        if share <= 0 || share >= 1 << 16 {
+            return Err(ConfigError::Share);
+        }
+        let chord = self.chord_tolerance_mm.to_bits();
+        if chord <= 0 || chord > q::ONE {
+            return Err(ConfigError::ChordTolerance);
+        }
+        let feeds = [
+            self.feed_max,
+            self.axis_speed_max[0],
+            self.axis_speed_max[1],
+            self.axis_speed_max[2],
+        ];
+        if feeds.iter().any(|f| f.0 <= 0 || !f.within_limits())
+            || self
+                .axis_accel_max_mm_s2
+                .iter()
+                .any(|&a| a == 0 || a > 1_000_000)
+            || self.jerk_max_mm_s3 == 0
+        {
+            return Err(ConfigError::Limit);
+        }
+        let t = self.tick_us;
+        // mm/min → mm/tick: × tick_us / 60e6.
+        let speed = |f: FeedMmPerMin| per_tick(f.0.to_bits() as i128, t, 1, 60);
+        let accel = |a: u32| per_tick((a as i128) << 32, t, 2, 1);
+        let a_min = self.axis_accel_max_mm_s2.iter().copied().min().unwrap_or(1);
+        let tangential = ((accel(a_min) as i128 * share as i128) >> 16) as i64;
+        let corner = self
+            .axis_accel_max_mm_s2
+            .map(|a| ((accel(a) as i128 * ((1 << 16) - share) as i128) >> 16) as i64);
+        let jerk = per_tick((self.jerk_max_mm_s3 as i128) << 32, t, 3, 1);
+        let feed_max = speed(self.feed_max);
+        if tangential <= 0 || jerk <= 0 || feed_max <= 0 {
+            return Err(ConfigError::Limit);
+        }
+        // Stored speeds are Q28 in 32 bits (< 16 mm/tick); the jerk needs
+        // enough bits for the stop's time-like quotients.
+        let axis_max = self
+            .axis_speed_max
+            .iter()
+            .map(|&f| speed(f))
+            .max()
+            .unwrap_or(0);
+        if jerk < 1 << 8 || feed_max.max(axis_max) >= 15 << 32 {
+            return Err(ConfigError::Resolution);
+        }
+        Ok(Limits {
+            feed_max,
+            axis_speed: self.axis_speed_max.map(speed),
+            corner_accel: corner,
+            accel: tangential,
+            envelope_decel: tangential - tangential / 20,
+            jerk,
+            chord,
+            reach: feed_max * 5 / 2,
+            creep: (jerk / 2).max(1),
+            feed_to_tick_q48: ((t as i128) << 48).div_euclid(60_000_000) as i64,
+            tick_to_feed_q16: ((60_000_000i128 << 16) / t as i128) as i64,
+            tick_us: t,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_compiles_to_per_tick_units() {
+        let l = MotionConfig::default().compile().unwrap();
+        let f = |v: i64| v as f64 / q::ONE as f64;
+        assert!((f(l.feed_max) - 5000.0 / 60.0 * 1e-3).abs() < 1e-9);
+        assert!((f(l.accel) - 1000.0 * 1e-6).abs() < 1e-9);
+        assert!((f(l.jerk) - 50_000.0 * 1e-9).abs() < 1e-9);
+        assert!((f(l.corner_accel[0]) - 1000.0 * 1e-6).abs() < 1e-9);
+        assert!(l.creep > 0);
+    }
+
+    #[test]
+    fn bad_configs_are_refused() {
+        let c = MotionConfig::default();
+        assert_eq!(
+            MotionConfig { tick_us: 10, ..c }.compile(),
+            Err(ConfigError::TickPeriod)
+        );
+        assert_eq!(
+            MotionConfig {
+                tangential_share: Fx::ONE,
+                ..c
+            }
+            .compile(),
+            Err(ConfigError::Share)
+        );
+        assert_eq!(
+            MotionConfig {
+                jerk_max_mm_s3: 0,
+                ..c
+            }
+            .compile(),
+            Err(ConfigError::Limit)
+        );
+        assert_eq!(
+            MotionConfig {
+                chord_tolerance_mm: I32F32::ZERO,
+                ..c
+            }
+            .compile(),
+            Err(ConfigError::ChordTolerance)
+        );
+        assert_eq!(
+            MotionConfig {
+                feed_max: FeedMmPerMin::ZERO,
+                ..c
+            }
+            .compile(),
+            Err(ConfigError::Limit)
+        );
+    }
+}

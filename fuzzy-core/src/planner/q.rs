@@ -1,0 +1,96 @@
+//! The planner's arithmetic: raw I32F32 (`i64`, 32 fractional bits) in
+//! per-tick units (mm, mm/tick, mm/tick², mm/tick³), so integrating over a
+//! tick needs no multiplication by the period. Every operation saturates.
+
+use crate::softfloat::Sf;
+
+/// 1.0 in Q32.
+pub(crate) const ONE: i64 = 1 << 32;
+
+/// Saturating `a·b` (Q32), rounded toward zero. The magnitudes multiply
+/// as `u64 × u64 → u128` (four `UMULL`s on a Cortex-M4; a 128-bit multiply
+/// of sign-extended operands compiles to a much longer chain there).
+#[inline]
+pub(crate) fn mul(a: i64, b: i64) -> i64 {
+    let neg = (a ^ b) < 0;
+    let p = a.unsigned_abs() as u128 * b.unsigned_abs() as u128;
+    if p >> 95 != 0 {
+        return if neg { i64::MIN } else { i64::MAX };
+    }
+    let m = (p >> 32) as i64;
+    if neg {
+        -m
+    } else {
+        m
+    }
+}
+
+/// `1/6` in Q32.
+pub(crate) const SIXTH: i64 = 715_827_883;
+
+/// Saturating `a/b` (Q32); `b = 0` gives ±max. Relative error below
+/// 2^-31 (a soft-float quotient on the hardware's 32-bit divide: an exact
+/// 96/64-bit division is a ~1000-instruction loop on a Cortex-M4).
+#[inline]
+pub(crate) fn div(a: i64, b: i64) -> i64 {
+    if b == 0 {
+        return if a >= 0 { i64::MAX } else { i64::MIN };
+    }
+    let q = match Sf::from_u64(a.unsigned_abs()).div(Sf::from_u64(b.unsigned_abs())) {
+        Some(q) => q.to_i64_scaled(32),
+        None => i64::MAX,
+    };
+    if (a < 0) != (b < 0) {
+        -q
+    } else {
+        q
+    }
+}
+
+/// `√a` (Q32) for `a >= 0` (negative gives 0).
+#[inline]
+pub(crate) fn sqrt(a: i64) -> i64 {
+    if a <= 0 {
+        return 0;
+    }
+    // √(raw·2^-32) = √raw · 2^-16, i.e. raw result √raw · 2^16.
+    Sf::from_u64(a as u64).sqrt().to_i64_scaled(16)
+}
+
+/// Q32 from an integer.
+pub(crate) const fn int(v: i64) -> i64 {
+    v << 32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn f(v: i64) -> f64 {
+        v as f64 / ONE as f64
+    }
+    fn q(v: f64) -> i64 {
+        (v * ONE as f64).round() as i64
+    }
+
+    #[test]
+    fn arithmetic_matches_f64() {
+        for (a, b) in [(1.5, 2.25), (-3.0, 0.001), (1e-6, 1e-4), (30000.0, 0.5)] {
+            assert!((f(mul(q(a), q(b))) - a * b).abs() < 1e-8);
+            let (qa, qb) = (f(q(a)), f(q(b))); // the inputs as quantised
+                                               // Relative error, plus half a step of the Q32 result.
+            assert!(
+                (f(div(q(a), q(b))) - qa / qb).abs() <= 1e-9 * (qa / qb).abs() + 2f64.powi(-32)
+            );
+        }
+        for a in [0.0, 1e-9, 0.25, 2.0, 1e6] {
+            assert!(
+                (f(sqrt(q(a))) - f64::sqrt(f(q(a)))).abs() < 1e-8 * (1.0 + a.sqrt()),
+                "{a}"
+            );
+        }
+        assert_eq!(mul(i64::MAX, int(2)), i64::MAX);
+        assert_eq!(div(ONE, 0), i64::MAX);
+        assert_eq!(sqrt(-5), 0);
+    }
+}

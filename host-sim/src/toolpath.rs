@@ -1,0 +1,188 @@
+//! A commanded toolpath: the polyline the controller is told to follow, in
+//! mm, with the programmed feed of each block and where each point came from.
+//!
+//! Every input (built-in shape, G-code, CSV) becomes a [`Toolpath`]; every
+//! method and machine works on one. Point `i` ends block `i` (the straight
+//! move `p[i-1] → p[i]`); point 0 is where the tool starts.
+
+use anyhow::{bail, Result};
+use fuzzy_core::scheduler::PathPoint;
+use fuzzy_core::units::{FeedMmPerMin, Point3Mm};
+
+/// A polyline with per-block feed caps and source lines.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Toolpath {
+    /// A short name for reports (file stem or shape name).
+    pub name: String,
+    /// Points, mm. Consecutive points are distinct (see [`Toolpath::new`]).
+    pub points: Vec<[f64; 3]>,
+    /// Programmed feed of the block ending at each point, mm/min (`None`:
+    /// no programmed limit, as for the built-in shapes).
+    pub feed_caps: Vec<Option<f64>>,
+    /// Source line of each point (1-based; 0 where there is none).
+    pub lines: Vec<u32>,
+}
+
+impl Toolpath {
+    /// A toolpath from points, caps and lines of equal length. Points equal
+    /// to their predecessor in the scheduler's fixed point (2⁻³² mm) are
+    /// dropped (zero-length blocks, merged as the scheduler merges them), so
+    /// that indices here and in the scheduler's output agree.
+    pub fn new(
+        name: impl Into<String>,
+        points: Vec<[f64; 3]>,
+        feed_caps: Vec<Option<f64>>,
+        lines: Vec<u32>,
+    ) -> Result<Self> {
+        if points.len() != feed_caps.len() || points.len() != lines.len() {
+            bail!("toolpath: points, feed caps and lines differ in length");
+        }
+        let mut t = Toolpath {
+            name: name.into(),
+            points: Vec::with_capacity(points.len()),
+            feed_caps: Vec::with_capacity(points.len()),
+            lines: Vec::with_capacity(points.len()),
+        };
+        let mut last: Option<Point3Mm> = None;
+        for ((p, cap), line) in points.into_iter().zip(feed_caps).zip(lines) {
+            if p.iter().any(|c| !c.is_finite()) {
+                bail!("line {line}: coordinate is not finite");
+            }
+            let fixed = Point3Mm::from_f64(p[0], p[1], p[2])
+                .filter(|q| q.within_limits())
+                .ok_or_else(|| {
+                    anyhow::anyhow!(
+                        "line {line}: coordinate beyond ±{} mm",
+                        fuzzy_core::units::COORD_LIMIT_MM
+                    )
+                })?;
+            if let Some(c) = cap {
+                if !(c.is_finite() && c > 0.0 && c <= 1e6) {
+                    bail!("line {line}: feed {c} mm/min outside (0, 1e6]");
+                }
+            }
+            if last == Some(fixed) {
+                continue;
+            }
+            last = Some(fixed);
+            t.points.push(p);
+            t.feed_caps.push(cap);
+            t.lines.push(line);
+        }
+        if t.points.len() < 2 {
+            bail!("toolpath {:?} has fewer than two distinct points", t.name);
+        }
+        Ok(t)
+    }
+
+    /// A toolpath from points alone (no caps; lines are 1-based indices).
+    pub fn from_points(name: impl Into<String>, points: Vec<[f64; 3]>) -> Result<Self> {
+        let n = points.len();
+        Self::new(name, points, vec![None; n], (1..=n as u32).collect())
+    }
+
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// Whether there are no points (never, for a constructed toolpath).
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+
+    /// Length of block `i` (`p[i-1] → p[i]`), mm; 0 for `i = 0`.
+    pub fn block_length_mm(&self, i: usize) -> f64 {
+        if i == 0 {
+            return 0.0;
+        }
+        distance(self.points[i - 1], self.points[i])
+    }
+
+    /// Total length, mm.
+    pub fn length_mm(&self) -> f64 {
+        (1..self.len()).map(|i| self.block_length_mm(i)).sum()
+    }
+
+    /// The points for `fuzzy-core`'s scheduler; each point's tag is its index
+    /// here.
+    pub fn path_points(&self) -> Vec<PathPoint> {
+        self.points
+            .iter()
+            .zip(&self.feed_caps)
+            .enumerate()
+            .map(|(i, (p, cap))| PathPoint {
+                // Checked in `new`.
+                pos: Point3Mm::from_f64(p[0], p[1], p[2]).unwrap_or_default(),
+                feed_cap: cap.map(FeedMmPerMin::from_f64),
+                tag: i as u32,
+            })
+            .collect()
+    }
+
+    /// The toolpath from a CSV point list (see [`crate::path_csv`]).
+    pub fn from_path_points(name: impl Into<String>, points: &[PathPoint]) -> Result<Self> {
+        Self::new(
+            name,
+            points.iter().map(|p| p.pos.to_f64()).collect(),
+            points
+                .iter()
+                .map(|p| p.feed_cap.map(|c| c.to_f64()))
+                .collect(),
+            points.iter().map(|p| p.tag).collect(),
+        )
+    }
+
+    /// Whether any point moves off the XY plane of the first point.
+    pub fn is_planar_xy(&self) -> bool {
+        let z0 = self.points[0][2];
+        self.points.iter().all(|p| (p[2] - z0).abs() < 1e-9)
+    }
+}
+
+/// Euclidean distance, mm.
+pub fn distance(a: [f64; 3], b: [f64; 3]) -> f64 {
+    ((b[0] - a[0]).powi(2) + (b[1] - a[1]).powi(2) + (b[2] - a[2]).powi(2)).sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn duplicates_dropped_and_lengths_add_up() {
+        let t = Toolpath::new(
+            "t",
+            vec![[0.0; 3], [0.0; 3], [3.0, 4.0, 0.0], [3.0, 4.0, 12.0]],
+            vec![None, None, Some(100.0), None],
+            vec![1, 2, 3, 4],
+        )
+        .unwrap();
+        assert_eq!(t.len(), 3);
+        assert_eq!(t.lines, vec![1, 3, 4]);
+        assert!((t.length_mm() - 17.0).abs() < 1e-12);
+        assert!(!t.is_planar_xy());
+        let pp = t.path_points();
+        assert_eq!(pp[1].tag, 1);
+        assert_eq!(pp[1].feed_cap, Some(FeedMmPerMin::from_int(100)));
+    }
+
+    #[test]
+    fn bad_input_is_refused_with_its_line() {
+        let e = Toolpath::new(
+            "t",
+            vec![[0.0; 3], [1e9, 0.0, 0.0]],
+            vec![None; 2],
+            vec![1, 7],
+        );
+        assert!(format!("{:#}", e.unwrap_err()).contains("line 7"));
+        let e = Toolpath::new(
+            "t",
+            vec![[0.0; 3], [1.0, 0.0, 0.0]],
+            vec![None, Some(-1.0)],
+            vec![1, 2],
+        );
+        assert!(format!("{:#}", e.unwrap_err()).contains("line 2"));
+        assert!(Toolpath::from_points("t", vec![[1.0; 3], [1.0; 3]]).is_err());
+    }
+}

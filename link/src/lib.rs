@@ -1,0 +1,495 @@
+//! The serial link between a host and the motion controller.
+//!
+//! One frame carries one message:
+//!
+//! ```text
+//! COBS( postcard(message) ‖ CRC-32/ISO-HDLC(postcard bytes), little endian ) ‖ 0x00
+//! ```
+//!
+//! - [`postcard`] serialises the messages ([`HostMsg`], [`DeviceMsg`]): varint
+//!   integers, enum variants by index;
+//! - the CRC ([`crc`], CRC-32 as in Ethernet/zlib) catches corrupted bytes;
+//! - COBS ([`cobs`]) removes every zero byte, so `0x00` marks the end of a
+//!   frame and a receiver resynchronises on the next one after garbage.
+//!
+//! Everything is `no_std`, allocation-free and panic-free; errors are values
+//! ([`FrameError`]), so the firmware can answer a bad frame with an error
+//! reply and drop it.
+//!
+//! # Sequencing and credit
+//! Commands that move through the controller's queue in order ([`HostMsg::StartPath`],
+//! [`HostMsg::Point`], [`HostMsg::EndPath`]) carry a sequence number `seq`,
+//! 0, 1, 2, … from boot. The controller accepts only `seq == next expected`;
+//! a repeat of an accepted `seq` is acknowledged again (so resending is
+//! harmless), anything else is refused with [`ErrorCode::OutOfSequence`]. Its
+//! [`DeviceMsg::Ack`] says which `seq` it expects next and up to which `seq`
+//! (exclusive) the host may send: the credit, the free room of its receive
+//! queue. A host that never sends past the credit can never overrun that
+//! queue; one that does gets [`ErrorCode::NoCredit`] and the command is
+//! dropped. Acknowledged commands are in the queue: nothing acknowledged is
+//! ever dropped.
+#![cfg_attr(not(test), no_std)]
+#![deny(missing_docs)]
+
+use crc::{Crc, CRC_32_ISO_HDLC};
+use serde::{Deserialize, Serialize};
+
+/// Largest frame on the wire, delimiter included, bytes.
+pub const FRAME_MAX: usize = 128;
+/// Largest postcard payload, bytes.
+pub const PAYLOAD_MAX: usize = 112;
+/// CRC bytes after the payload.
+pub const CRC_LEN: usize = 4;
+/// The frame delimiter.
+pub const DELIMITER: u8 = 0;
+
+const CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
+
+/// Fixed-point raw bits: I32F32 (value × 2^32), for positions in mm and
+/// feeds in mm/min. Exact on both sides of the link.
+pub type I32F32Bits = i64;
+
+/// Host to controller.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum HostMsg {
+    /// Ask for a [`DeviceMsg::Status`] (answered at once).
+    StatusQuery,
+    /// Start a path (queued): maximum and minimum feed of the scheduler,
+    /// mm/min as I32F32 bits.
+    StartPath {
+        /// Sequence number.
+        seq: u32,
+        /// F_max, mm/min, I32F32 bits.
+        f_max_mm_per_min: I32F32Bits,
+        /// F_min, mm/min, I32F32 bits.
+        f_min_mm_per_min: I32F32Bits,
+    },
+    /// A point of the path (queued).
+    Point {
+        /// Sequence number (reported back as the point's tag).
+        seq: u32,
+        /// Position, mm, I32F32 bits per axis.
+        pos_mm: [I32F32Bits; 3],
+        /// Largest feed on the way to this point, mm/min, I32F32 bits.
+        feed_cap_mm_per_min: Option<I32F32Bits>,
+    },
+    /// End of the path (queued): the scheduler flushes its lookahead.
+    EndPath {
+        /// Sequence number.
+        seq: u32,
+    },
+    /// Feed hold: decelerate to a stop on the path (immediate).
+    Hold,
+    /// Release a feed hold (immediate).
+    Resume,
+    /// Feed override, percent of the scheduled feed, 10..=200 (immediate).
+    Override {
+        /// Percent.
+        percent: u16,
+    },
+}
+
+/// Smallest feed override, percent.
+pub const OVERRIDE_MIN_PERCENT: u16 = 10;
+/// Largest feed override, percent.
+pub const OVERRIDE_MAX_PERCENT: u16 = 200;
+
+/// What the interpolator is doing (mirrors the firmware's motion state).
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Motion {
+    /// At rest, nothing to do.
+    #[default]
+    Idle,
+    /// Moving.
+    Running,
+    /// Feed hold (decelerating or stopped).
+    Held,
+    /// Out of path while the path is open: stopping or stopped, waiting.
+    Starved,
+}
+
+/// The controller's state, answer to [`HostMsg::StatusQuery`].
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Status {
+    /// Motion state.
+    pub motion: Motion,
+    /// Position setpoint, mm, I32F32 bits per axis.
+    pub pos_mm: [I32F32Bits; 3],
+    /// Current feed (tangential speed), mm/min, I32F32 bits.
+    pub feed_mm_per_min: I32F32Bits,
+    /// Feed override, percent.
+    pub override_percent: u16,
+    /// Next sequence number expected.
+    pub next_seq: u32,
+    /// Credit: the host may send up to this sequence number, exclusive.
+    pub window_end: u32,
+    /// Segments waiting in the interpolator.
+    pub segments_queued: u16,
+    /// Points held in the scheduler's lookahead.
+    pub points_held: u16,
+    /// Segments completed since boot.
+    pub segments_done: u32,
+    /// Controlled stops caused by a path that stopped arriving.
+    pub underruns: u32,
+    /// Frames refused since boot.
+    pub bad_frames: u32,
+    /// Worst interpolator tick, SysTick cycles (QEMU: instructions × 0.168).
+    pub worst_tick_cycles: u32,
+    /// Stack high-water mark, bytes (painted stack).
+    pub stack_used_bytes: u32,
+    /// Interpolator ticks since boot.
+    pub ticks: u32,
+}
+
+/// Why a frame or command was refused.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum ErrorCode {
+    /// Not valid COBS (garbage).
+    Framing,
+    /// Longer than [`FRAME_MAX`] before a delimiter (garbage or a lost
+    /// delimiter).
+    TooLong,
+    /// Shorter than a CRC (truncated).
+    TooShort,
+    /// CRC mismatch (corrupted or truncated).
+    Crc,
+    /// CRC right but the message is not one we know.
+    UnknownMessage,
+    /// A known message with missing or malformed fields.
+    Malformed,
+    /// A value out of range (coordinate, feed, override percent).
+    OutOfRange,
+    /// Not the sequence number expected ([`DeviceMsg::Error::expected_seq`]).
+    OutOfSequence,
+    /// Sent past the credit window.
+    NoCredit,
+    /// Refused by the scheduler (e.g. a point before `StartPath`).
+    Rejected,
+}
+
+/// Controller to host.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum DeviceMsg {
+    /// Every `seq < next_seq` is accepted; the host may send `seq < window_end`.
+    Ack {
+        /// Next sequence number expected.
+        next_seq: u32,
+        /// Credit limit (exclusive).
+        window_end: u32,
+    },
+    /// The scheduler released a point with this feed.
+    Scheduled {
+        /// The point's sequence number.
+        seq: u32,
+        /// Index of the point in its path.
+        index: u32,
+        /// Scheduled feed, mm/min, I32F32 bits (bit-exact with `fuzzy-core`).
+        feed_mm_per_min: I32F32Bits,
+    },
+    /// State report.
+    Status(Status),
+    /// A frame or command was refused and dropped.
+    Error {
+        /// Why.
+        code: ErrorCode,
+        /// Next sequence number expected (resend from there).
+        expected_seq: u32,
+    },
+    /// Sent once after reset, with the settings in force.
+    Hello {
+        /// Interpolator tick rate, Hz.
+        tick_hz: u32,
+        /// Tangential acceleration limit, mm/s².
+        accel_mm_per_s2: u32,
+        /// Credit limit (exclusive).
+        window_end: u32,
+    },
+}
+
+/// Why encoding or decoding failed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum FrameError {
+    /// The message does not fit [`PAYLOAD_MAX`] / the output buffer.
+    BufferTooSmall,
+    /// Received frame refused; the code to reply with.
+    Refused(ErrorCode),
+}
+
+impl core::fmt::Display for FrameError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            FrameError::BufferTooSmall => f.write_str("message too large for a frame"),
+            FrameError::Refused(code) => write!(f, "frame refused: {code:?}"),
+        }
+    }
+}
+
+/// Encode `msg` as a frame (delimiter included) into `out`; returns its
+/// length.
+pub fn encode<T: Serialize>(msg: &T, out: &mut [u8]) -> Result<usize, FrameError> {
+    let mut raw = [0u8; PAYLOAD_MAX + CRC_LEN];
+    let n = postcard::to_slice(msg, &mut raw[..PAYLOAD_MAX])
+        .map_err(|_| FrameError::BufferTooSmall)?
+        .len();
+    let (payload, rest) = raw.split_at_mut(n.min(PAYLOAD_MAX));
+    let crc = CRC32.checksum(payload).to_le_bytes();
+    rest.get_mut(..CRC_LEN)
+        .ok_or(FrameError::BufferTooSmall)?
+        .copy_from_slice(&crc);
+    let body = raw.get(..n + CRC_LEN).ok_or(FrameError::BufferTooSmall)?;
+    let m = cobs::try_encode(body, out).map_err(|_| FrameError::BufferTooSmall)?;
+    *out.get_mut(m).ok_or(FrameError::BufferTooSmall)? = DELIMITER;
+    Ok(m + 1)
+}
+
+/// Check and decode one frame's content (COBS already undone): the
+/// postcard payload followed by its CRC.
+pub fn decode_payload<'de, T: Deserialize<'de>>(body: &'de [u8]) -> Result<T, ErrorCode> {
+    if body.len() <= CRC_LEN {
+        return Err(ErrorCode::TooShort);
+    }
+    let (payload, crc) = body
+        .split_at_checked(body.len() - CRC_LEN)
+        .ok_or(ErrorCode::TooShort)?;
+    let mut want = [0u8; CRC_LEN];
+    for (w, c) in want.iter_mut().zip(crc) {
+        *w = *c;
+    }
+    if CRC32.checksum(payload) != u32::from_le_bytes(want) {
+        return Err(ErrorCode::Crc);
+    }
+    match postcard::from_bytes::<T>(payload) {
+        Ok(m) => Ok(m),
+        // serde reports an unknown variant index as a custom error.
+        Err(postcard::Error::DeserializeBadEnum | postcard::Error::SerdeDeCustom) => {
+            Err(ErrorCode::UnknownMessage)
+        }
+        Err(_) => Err(ErrorCode::Malformed),
+    }
+}
+
+/// Collects bytes into frames: feed it every received byte; it returns a
+/// complete frame's result at each delimiter. COBS is undone on the fly
+/// (`cobs::DecoderState`); a frame longer than [`FRAME_MAX`] is dropped up
+/// to the next delimiter ([`ErrorCode::TooLong`], reported once).
+#[derive(Debug)]
+pub struct FrameReader {
+    buf: [u8; FRAME_MAX],
+    len: usize,
+    cobs: cobs::DecoderState,
+    overflow: bool,
+    broken: bool,
+    started: bool,
+}
+
+impl Default for FrameReader {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl FrameReader {
+    /// An empty reader.
+    pub const fn new() -> Self {
+        FrameReader {
+            buf: [0; FRAME_MAX],
+            len: 0,
+            cobs: cobs::DecoderState::Idle,
+            overflow: false,
+            broken: false,
+            started: false,
+        }
+    }
+
+    /// Take one byte. `None` while a frame is incomplete (and for empty
+    /// frames, i.e. repeated delimiters); at a delimiter, the frame's
+    /// message or why it was refused.
+    pub fn push<T: for<'de> Deserialize<'de>>(&mut self, byte: u8) -> Option<Result<T, ErrorCode>> {
+        if byte != DELIMITER {
+            self.started = true;
+            if self.overflow || self.broken {
+                return None;
+            }
+            match self.cobs.feed(byte) {
+                Ok(cobs::DecodeResult::DataContinue(b)) => match self.buf.get_mut(self.len) {
+                    Some(slot) => {
+                        *slot = b;
+                        self.len += 1;
+                    }
+                    None => self.overflow = true,
+                },
+                Ok(_) => {}
+                Err(_) => self.broken = true,
+            }
+            return None;
+        }
+        let end = core::mem::replace(&mut self.cobs, cobs::DecoderState::Idle).feed(DELIMITER);
+        let (len, overflow, broken, started) = (self.len, self.overflow, self.broken, self.started);
+        self.len = 0;
+        self.overflow = false;
+        self.broken = false;
+        self.started = false;
+        if !started {
+            return None;
+        }
+        if overflow {
+            return Some(Err(ErrorCode::TooLong));
+        }
+        if broken || !matches!(end, Ok(cobs::DecodeResult::DataComplete)) {
+            return Some(Err(ErrorCode::Framing));
+        }
+        let body = self.buf.get(..len)?;
+        Some(decode_payload(body))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn roundtrip<T: Serialize + for<'de> Deserialize<'de> + PartialEq + core::fmt::Debug>(m: T) {
+        let mut out = [0u8; FRAME_MAX];
+        let n = encode(&m, &mut out).unwrap();
+        assert_eq!(out[n - 1], 0);
+        assert!(out[..n - 1].iter().all(|b| *b != 0));
+        let mut r = FrameReader::new();
+        let mut got = None;
+        for b in &out[..n] {
+            if let Some(x) = r.push::<T>(*b) {
+                got = Some(x);
+            }
+        }
+        assert_eq!(got, Some(Ok(m)));
+    }
+
+    #[test]
+    fn every_message_round_trips_and_fits() {
+        roundtrip(HostMsg::Point {
+            seq: u32::MAX,
+            pos_mm: [i64::MIN, i64::MAX, -1],
+            feed_cap_mm_per_min: Some(i64::MAX),
+        });
+        roundtrip(HostMsg::Override { percent: 200 });
+        roundtrip(HostMsg::StartPath {
+            seq: 7,
+            f_max_mm_per_min: 3000 << 32,
+            f_min_mm_per_min: 60 << 32,
+        });
+        roundtrip(DeviceMsg::Status(Status {
+            pos_mm: [i64::MIN; 3],
+            feed_mm_per_min: i64::MIN,
+            next_seq: u32::MAX,
+            window_end: u32::MAX,
+            segments_done: u32::MAX,
+            underruns: u32::MAX,
+            bad_frames: u32::MAX,
+            worst_tick_cycles: u32::MAX,
+            stack_used_bytes: u32::MAX,
+            ticks: u32::MAX,
+            segments_queued: u16::MAX,
+            points_held: u16::MAX,
+            override_percent: u16::MAX,
+            motion: Motion::Starved,
+        }));
+        roundtrip(DeviceMsg::Error {
+            code: ErrorCode::Rejected,
+            expected_seq: 3,
+        });
+    }
+
+    fn frame(m: &HostMsg) -> Vec<u8> {
+        let mut out = [0u8; FRAME_MAX];
+        let n = encode(m, &mut out).unwrap();
+        out[..n].to_vec()
+    }
+
+    fn feed(r: &mut FrameReader, bytes: &[u8]) -> Vec<Result<HostMsg, ErrorCode>> {
+        bytes.iter().filter_map(|b| r.push(*b)).collect()
+    }
+
+    #[test]
+    fn bad_frames_are_refused_and_the_next_one_decodes() {
+        let good = frame(&HostMsg::Hold);
+        let mut r = FrameReader::new();
+        // Bit flip: CRC.
+        let mut bad = frame(&HostMsg::Override { percent: 50 });
+        bad[2] ^= 0x10;
+        assert_eq!(feed(&mut r, &bad), vec![Err(ErrorCode::Crc)]);
+        // Truncated: the frame lost its tail.
+        let mut t = frame(&HostMsg::Point {
+            seq: 1,
+            pos_mm: [1, 2, 3],
+            feed_cap_mm_per_min: None,
+        });
+        let n = t.len();
+        t.drain(n - 4..n - 1);
+        assert!(matches!(
+            feed(&mut r, &t)[..],
+            [Err(ErrorCode::Crc | ErrorCode::Framing)]
+        ));
+        // Too short.
+        assert_eq!(feed(&mut r, &[2, 1, 0]), vec![Err(ErrorCode::TooShort)]);
+        // Unknown message: valid CRC, variant 200.
+        let mut raw = vec![200u8, 1];
+        raw.extend(CRC32.checksum(&raw).to_le_bytes());
+        let mut enc = vec![0u8; 16];
+        let m = cobs::encode(&raw, &mut enc);
+        enc.truncate(m);
+        enc.push(0);
+        assert_eq!(feed(&mut r, &enc), vec![Err(ErrorCode::UnknownMessage)]);
+        // Malformed: a Point with its fields missing.
+        let mut raw = vec![2u8];
+        raw.extend(CRC32.checksum(&raw).to_le_bytes());
+        let mut enc = vec![0u8; 16];
+        let m = cobs::encode(&raw, &mut enc);
+        enc.truncate(m);
+        enc.push(0);
+        assert_eq!(feed(&mut r, &enc), vec![Err(ErrorCode::Malformed)]);
+        // Garbage longer than a frame.
+        assert_eq!(
+            feed(&mut r, &[0x55; FRAME_MAX * 3]),
+            Vec::<Result<HostMsg, _>>::new()
+        );
+        assert_eq!(feed(&mut r, &[0]), vec![Err(ErrorCode::TooLong)]);
+        // And the reader is in sync again.
+        assert_eq!(feed(&mut r, &good), vec![Ok(HostMsg::Hold)]);
+    }
+
+    proptest! {
+        /// Arbitrary bytes never panic the reader, and a good frame after a
+        /// delimiter always decodes.
+        #[test]
+        fn garbage_never_panics_and_resyncs(bytes in proptest::collection::vec(any::<u8>(), 0..400)) {
+            let mut r = FrameReader::new();
+            let _ = feed(&mut r, &bytes);
+            let mut tail = vec![0u8];
+            tail.extend(frame(&HostMsg::Resume));
+            let got = feed(&mut r, &tail);
+            prop_assert_eq!(got.last(), Some(&Ok(HostMsg::Resume)));
+        }
+
+        /// Any single corrupted byte in a frame is caught (never decoded as
+        /// a different message).
+        #[test]
+        fn single_byte_corruption_is_caught(seq in any::<u32>(), x in any::<i64>(), at in 0usize..64, flip in 1u8..=255) {
+            let m = HostMsg::Point { seq, pos_mm: [x, -x, 0], feed_cap_mm_per_min: Some(x >> 3) };
+            let mut f = frame(&m);
+            let i = at % (f.len() - 1);
+            f[i] ^= flip;
+            let mut r = FrameReader::new();
+            for got in feed(&mut r, &f) {
+                prop_assert_ne!(got, Ok(m));
+                prop_assert!(got.is_err());
+            }
+        }
+    }
+}
