@@ -56,7 +56,6 @@ fn constant(xyz: &[[f64; 3]], feed: i32) -> Vec<MotionPoint> {
                 pos: p[i],
                 feed: FeedMmPerMin::from_int(feed),
                 curvature: k,
-                tag: i as u32,
             }
         })
         .collect()

@@ -18,8 +18,6 @@ pub struct MotionPoint {
     pub feed: FeedMmPerMin,
     /// Path curvature at the point (for the chord-error bound), 1/mm.
     pub curvature: CurvaturePerMm,
-    /// Caller's tag (returned in [`Tick::tag`] once the point is passed).
-    pub tag: u32,
 }
 
 impl From<&ScheduledPoint> for MotionPoint {
@@ -28,7 +26,6 @@ impl From<&ScheduledPoint> for MotionPoint {
             pos: p.point.pos,
             feed: p.feed,
             curvature: p.curvature,
-            tag: p.point.tag,
         }
     }
 }
@@ -44,6 +41,8 @@ pub enum MotionError {
     PathEnded,
     /// Coordinates or feed out of range.
     BadPoint,
+    /// [`Motion::restart`] while the tool is moving.
+    Moving,
 }
 
 impl core::fmt::Display for MotionError {
@@ -52,6 +51,7 @@ impl core::fmt::Display for MotionError {
             MotionError::Full => "motion buffer full",
             MotionError::PathEnded => "path already ended",
             MotionError::BadPoint => "point out of range",
+            MotionError::Moving => "cannot restart while moving",
         })
     }
 }
@@ -85,8 +85,9 @@ pub struct Tick {
     pub speed: i64,
     /// Tangential acceleration, mm/tick² (raw Q32).
     pub accel: i64,
-    /// Tag of the last point passed.
-    pub tag: u32,
+    /// Index in the path (0 = its first point, every pushed point counts)
+    /// of the last point reached.
+    pub point: u32,
     /// State.
     pub state: MotionState,
 }
@@ -106,18 +107,17 @@ pub struct PlannedPoint {
     pub cap: FeedMmPerMin,
     /// Envelope, mm/min.
     pub envelope: FeedMmPerMin,
-    /// Caller's tag.
-    pub tag: u32,
+    /// Index in the path.
+    pub index: u32,
 }
 
-/// A buffered point with what the planner derived for it (56-64 bytes:
-/// the buffer is most of the planner's RAM).
+/// A buffered point with what the planner derived for it (56 bytes: the
+/// buffer is most of the planner's RAM).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 struct Node {
     pos: Point3Mm,
     /// Arc length from the path start, mm (Q32).
     s: i64,
-    tag: u32,
     /// Change of direction at this node per axis, `|d_out − d_in|` (Q14,
     /// rounded up).
     turn: [u16; 3],
@@ -173,7 +173,10 @@ pub struct Motion<const N: usize> {
     seg: usize,
     seg_dir: [i32; 3],
     seg_dir_valid: bool,
-    last_tag: u32,
+    /// Path index of `nodes[0]`.
+    front_index: u32,
+    /// Path index of the last point reached.
+    reached: u32,
 }
 
 impl<const N: usize> Motion<N> {
@@ -201,7 +204,8 @@ impl<const N: usize> Motion<N> {
             seg: 0,
             seg_dir: [0; 3],
             seg_dir_valid: false,
-            last_tag: 0,
+            front_index: 0,
+            reached: 0,
         })
     }
 
@@ -222,7 +226,7 @@ impl<const N: usize> Motion<N> {
                     0
                 }),
                 envelope: self.speed_mm_per_min(ld(n.env)),
-                tag: n.tag,
+                index: self.front_index.wrapping_add(i as u32),
             })
         })
     }
@@ -253,17 +257,35 @@ impl<const N: usize> Motion<N> {
         ))
     }
 
-    /// Start a new path from rest (drops what is buffered).
-    pub fn restart(&mut self) {
+    /// Start a new path where the tool is (at rest): what is buffered is
+    /// dropped, and the new path's first point (index 0) is the tool's
+    /// position, so the tool never jumps; the first pushed point is index 1
+    /// (or merges into index 0 if it is the same position). Before any
+    /// point was pushed, the next pushed point is where the tool is.
+    pub fn restart(&mut self) -> Result<(), MotionError> {
+        if !self.at_rest() {
+            return Err(MotionError::Moving);
+        }
+        let here = (!self.nodes.is_empty()).then(|| self.position());
         self.nodes.clear();
         self.finalized = 0;
         self.ended = false;
         self.last_dir = None;
         self.x = 0;
-        self.v = 0;
-        self.a = 0;
         self.seg = 0;
         self.seg_dir_valid = false;
+        self.front_index = 0;
+        self.reached = 0;
+        if let Some(pos) = here {
+            let _ = self.nodes.push_back(Node {
+                pos,
+                ceil: st(self.lim.creep),
+                cap: u32::MAX,
+                feed: u32::MAX,
+                ..Node::default()
+            });
+        }
+        Ok(())
     }
 
     /// Feed hold on/off: on, the tool decelerates (jerk-limited, within the
@@ -308,21 +330,24 @@ impl<const N: usize> Motion<N> {
         }
         let mut node = Node {
             pos: p.pos,
-            tag: p.tag,
             feed: st(feed),
             ceil: st(own),
             cap: u32::MAX,
             ..Node::default()
         };
-        let n = self.nodes.len();
         if let Some(last) = self.nodes.back_mut() {
             let b = p.pos.to_bits();
             let l = last.pos.to_bits();
             let d = [0, 1, 2].map(|k| b[k].saturating_sub(l[k]));
             let Some((dir, len)) = unit(d) else {
-                // A zero-length move: merged into the previous point, which
-                // now reports this point's tag.
-                last.tag = p.tag;
+                // A zero-length move: a node at the same place (the change
+                // of direction is counted at the later one).
+                node.s = last.s;
+                node.ceil = node.ceil.min(last.ceil);
+                last.cap = u32::MAX;
+                last.turn = [0; 3];
+                let _ = self.nodes.push_back(node); // not full (checked)
+                self.finalize(false);
                 return Ok(());
             };
             let seg = st(axis_cap(&lim.axis_speed, dir));
@@ -337,9 +362,6 @@ impl<const N: usize> Motion<N> {
                 });
             }
             self.last_dir = Some(dir);
-            if n == 1 && self.finalized == 0 {
-                // (the first segment of the path)
-            }
         }
         let _ = self.nodes.push_back(node); // not full (checked)
         self.finalize(false);
@@ -680,7 +702,7 @@ impl<const N: usize> Motion<N> {
             s_mm: fixed::types::I32F32::from_bits(self.x),
             speed: self.v,
             accel: self.a,
-            tag: self.last_tag,
+            point: self.reached,
             state,
         }
     }
@@ -764,9 +786,8 @@ impl<const N: usize> Motion<N> {
             self.seg = seg;
             self.seg_dir_valid = false;
         }
-        if let Some(n) = self.nodes.get(if self.x >= s_tail { tail } else { seg }) {
-            self.last_tag = n.tag;
-        }
+        let reached = if self.x >= s_tail { tail } else { seg };
+        self.reached = self.front_index.wrapping_add(reached as u32);
         if self.hold {
             MotionState::Holding
         } else if self.x >= s_tail {
@@ -830,6 +851,7 @@ impl<const N: usize> Motion<N> {
             let _ = self.nodes.pop_front();
             self.seg -= 1;
             self.finalized -= 1;
+            self.front_index = self.front_index.wrapping_add(1);
         }
     }
 
@@ -916,6 +938,17 @@ fn unit(d: [i64; 3]) -> Option<([i32; 3], i64)> {
         (if c < 0 { -q } else { q }) as i32
     });
     Some((dir, len))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_node_is_56_bytes() {
+        // The buffer is most of the planner's RAM (firmware budget).
+        assert_eq!(core::mem::size_of::<Node>(), 56);
+    }
 }
 
 /// `q::int` re-exported for tests.
