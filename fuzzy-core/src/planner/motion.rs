@@ -4,7 +4,7 @@ use heapless::Deque;
 
 use super::brake::{integrate, speed_crossings, Brake};
 use super::config::{ConfigError, Limits, MotionConfig};
-use super::q::{self, div, mul, sqrt, ONE};
+use super::q::{div, mul, sqrt, ONE};
 use crate::scheduler::ScheduledPoint;
 use crate::units::{CurvaturePerMm, FeedMmPerMin, Point3Mm};
 
@@ -949,10 +949,4 @@ mod tests {
         // The buffer is most of the planner's RAM (firmware budget).
         assert_eq!(core::mem::size_of::<Node>(), 56);
     }
-}
-
-/// `q::int` re-exported for tests.
-#[allow(dead_code)]
-pub(crate) const fn int(v: i64) -> i64 {
-    q::int(v)
 }
