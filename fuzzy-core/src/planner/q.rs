@@ -57,10 +57,6 @@ pub(crate) fn sqrt(a: i64) -> i64 {
     Sf::from_u64(a as u64).sqrt().to_i64_scaled(16)
 }
 
-/// Q32 from an integer.
-pub(crate) const fn int(v: i64) -> i64 {
-    v << 32
-}
 
 #[cfg(test)]
 mod tests {
@@ -89,7 +85,7 @@ mod tests {
                 "{a}"
             );
         }
-        assert_eq!(mul(i64::MAX, int(2)), i64::MAX);
+        assert_eq!(mul(i64::MAX, 2 << 32), i64::MAX);
         assert_eq!(div(ONE, 0), i64::MAX);
         assert_eq!(sqrt(-5), 0);
     }
