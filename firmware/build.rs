@@ -12,7 +12,16 @@ fn main() {
     fs::copy("../memory.x", out.join("memory.x")).expect("copy ../memory.x");
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rerun-if-changed=../memory.x");
-    for var in ["FW_TICK_HZ", "FW_ACCEL_MM_PER_S2", "FW_STEPS_PER_MM"] {
+    for var in [
+        "FW_TICK_HZ",
+        "FW_STEPS_PER_MM",
+        "FW_FEED_MAX_MM_PER_MIN",
+        "FW_AXIS_SPEED_MM_PER_MIN",
+        "FW_AXIS_ACCEL_MM_PER_S2",
+        "FW_JERK_MM_PER_S3",
+        "FW_CHORD_NM",
+        "FW_TANGENTIAL_SHARE_PERCENT",
+    ] {
         println!("cargo:rerun-if-env-changed={var}");
     }
     for shape in ["infinity", "trident", "butterfly"] {

@@ -1,14 +1,15 @@
 #!/usr/bin/env python3
 """Firmware checks for CI, against committed baselines in firmware/baseline/.
 
-    check.py size   [--bless]  flash/RAM of the release image: budgets and +10 %
+    check.py size   [--bless]  flash/RAM of the release image: budgets and +10 %;
+                               the board image (--features board): budgets
     check.py cost   [--bless]  instructions per point / tick in QEMU -icount: +10 %
     check.py panic  [--bless]  no reachable panic in the release image
 
 `--bless` rewrites the baseline with the figures just measured (review the
 diff like any golden file). Budgets come from issue 3: flash <= 48 KiB,
 static RAM <= 12 KiB (checked, fail), <= 2000 instructions per scheduled
-point and <= 8400 per interpolator tick (reported; a figure over its budget
+point and <= 8400 per tick interrupt (reported; a figure over its budget
 is printed as OVER BUDGET but only growth fails, so that the known excess
 of the scheduler, tracked in fuzzy-core, does not block every change).
 Run from anywhere; builds must exist (scripts/test.sh builds them).
@@ -25,7 +26,12 @@ BASE = os.path.join(FW, "baseline")
 GROWTH = 1.10
 FLASH_BUDGET = 48 * 1024
 RAM_BUDGET = 12 * 1024
-COST_BUDGET = {"sched_mean": 2000, "point_mean": 2000, "tick_worst": 8400}
+# Issue 3's budgets: per scheduled point (the scheduler alone) and per tick
+# interrupt (which only takes a setpoint from the ring); the planner's
+# per-tick generation runs in the background and has no per-call budget.
+COST_BUDGET = {"sched_mean": 2000, "isr_worst": 8400}
+COST_KEYS = ["sched_mean", "sched_worst", "push_mean", "push_worst", "gen_mean", "gen_worst",
+             "isr_mean", "isr_worst", "override_worst"]
 QEMU_TIMEOUT_S = 300
 
 
@@ -89,7 +95,26 @@ def size(bless):
     if text + data > FLASH_BUDGET or data + bss > RAM_BUDGET:
         print("size: OVER BUDGET")
         failed = True
+    failed |= board_size()
     return 1 if failed else 0
+
+
+def board_size():
+    """The image users flash (feature `board`: defmt over RTT, clock
+    set-up) against the budgets too; then the default image is rebuilt."""
+    env = dict(os.environ)
+    env.pop("CARGO_TARGET_DIR", None)
+    try:
+        subprocess.run(["cargo", "build", "--release", "-q", "--no-default-features", "--features", "board"],
+                       cwd=FW, env=env, check=True)
+        out = subprocess.check_output([llvm_tool("llvm-size"), os.path.join(REL, "fuzzy-firmware")],
+                                      text=True).split("\n")[1].split()
+    finally:
+        subprocess.run(["cargo", "build", "--release", "-q"], cwd=FW, env=env, check=True)
+    text, data, bss = int(out[0]), int(out[1]), int(out[2])
+    over = text + data > FLASH_BUDGET or data + bss > RAM_BUDGET
+    print(f"board image (--features board): flash {text + data}, static RAM {data + bss}{'  OVER BUDGET' if over else ''}")
+    return over
 
 
 def cost(bless):
@@ -108,7 +133,7 @@ def cost(bless):
         print("cost: no summary line")
         return 1
     kv = dict(x.split("=") for x in m.group(1).split())
-    now = {k: int(kv[k]) for k in ["sched_mean", "sched_worst", "point_mean", "point_worst", "tick_worst"]}
+    now = {k: int(kv[k]) for k in COST_KEYS}
     st = re.search(r"stack_bytes=(\d+)", res.stdout)
     path = os.path.join(BASE, "cost.txt")
     print("cost (instructions, QEMU -icount shift=0):")
@@ -169,8 +194,10 @@ def panic(bless):
         frames = subprocess.check_output(["addr2line", "-i", "-e", elf, "0x" + addr], text=True).split()
         site = next((f for f in frames if "/rustc/" not in f and not f.endswith((":?", ":0"))), src)
         if site is None:
-            continue
-        site = site.split(" ")[0].replace(ROOT + "/", "")
+            # No source line of ours (an outlined standard-library function):
+            # name the function instead of dropping the site.
+            site = "fn " + re.sub(r"::h[0-9a-f]{16}$", "", func) + ":0"
+        site = site.split(" :")[0].replace(ROOT + "/", "") if site.startswith("fn ") else site.split(" ")[0].replace(ROOT + "/", "")
         site = re.sub(r"^.*/registry/src/[^/]+/", "", site)
         # Keyed by file and panic kind, not line, so that edits elsewhere
         # in the file do not move a known site into "new".

@@ -1,6 +1,15 @@
 //! Build-time settings. Each can be changed without editing code through an
 //! environment variable at build time, e.g.
 //! `FW_TICK_HZ=2000 cargo build --release`.
+//!
+//! This file depends on `fuzzy-core` only: the host tests include it
+//! (`#[path]`, in `tests/src/firmware.rs`) so that they plan with exactly the
+//! firmware's settings (they also check the firmware's `Hello`).
+
+use fixed::types::{I16F16, I32F32};
+use fuzzy_core::planner::MotionConfig;
+use fuzzy_core::scheduler::SchedulerConfig;
+use fuzzy_core::units::FeedMmPerMin;
 
 /// `value` parsed as a decimal `u32`, or `default` if absent or invalid.
 const fn env_u32(value: Option<&str>, default: u32) -> u32 {
@@ -22,38 +31,92 @@ const fn env_u32(value: Option<&str>, default: u32) -> u32 {
     v
 }
 
-/// Interpolator tick rate, Hz (`FW_TICK_HZ`, default 1000).
-pub const TICK_HZ: u32 = env_u32(option_env!("FW_TICK_HZ"), 1000);
-/// Tangential acceleration limit, mm/s² (`FW_ACCEL_MM_PER_S2`, default 1000).
-pub const ACCEL_MM_PER_S2: u32 = env_u32(option_env!("FW_ACCEL_MM_PER_S2"), 1000);
+/// Interpolation tick rate, Hz (`FW_TICK_HZ`, default 1000; 10 to 20 000).
+pub const TICK_HZ: u32 = clamp(env_u32(option_env!("FW_TICK_HZ"), 1000), 10, 20_000);
 /// Motor steps per mm, every axis (`FW_STEPS_PER_MM`, default 100).
 pub const STEPS_PER_MM: u32 = env_u32(option_env!("FW_STEPS_PER_MM"), 100);
 /// Most step pulses per axis in one tick (more are carried to the next tick
 /// and counted as lag).
 pub const MAX_STEPS_PER_TICK: u32 = 64;
 
+/// Largest feed the machine runs (programmed feed × override is capped to
+/// it; a path's F_max above it is accepted and scheduled, the motion is
+/// capped), mm/min (`FW_FEED_MAX_MM_PER_MIN`, default 5000).
+pub const FEED_MAX_MM_PER_MIN: u32 = env_u32(option_env!("FW_FEED_MAX_MM_PER_MIN"), 5000);
+/// Per-axis speed limit, mm/min (`FW_AXIS_SPEED_MM_PER_MIN`, default 10 000).
+pub const AXIS_SPEED_MM_PER_MIN: u32 = env_u32(option_env!("FW_AXIS_SPEED_MM_PER_MIN"), 10_000);
+/// Per-axis acceleration limit, mm/s² (`FW_AXIS_ACCEL_MM_PER_S2`, default
+/// 2000; the tangential acceleration gets [`TANGENTIAL_SHARE_PERCENT`] of it).
+pub const AXIS_ACCEL_MM_PER_S2: u32 = env_u32(option_env!("FW_AXIS_ACCEL_MM_PER_S2"), 2000);
+/// Tangential jerk limit, mm/s³ (`FW_JERK_MM_PER_S3`, default 50 000).
+pub const JERK_MM_PER_S3: u32 = env_u32(option_env!("FW_JERK_MM_PER_S3"), 50_000);
+/// Chord tolerance of one tick's straight move, nm (`FW_CHORD_NM`, default
+/// 1000 = 1 µm).
+pub const CHORD_NM: u32 = env_u32(option_env!("FW_CHORD_NM"), 1000);
+/// Share of the axis acceleration for tangential acceleration, percent (the
+/// rest is kept for changes of direction; `FW_TANGENTIAL_SHARE_PERCENT`,
+/// default 50).
+pub const TANGENTIAL_SHARE_PERCENT: u32 = env_u32(option_env!("FW_TANGENTIAL_SHARE_PERCENT"), 50);
+
+/// The velocity planner's settings (`fuzzy_core::planner`); with the
+/// defaults this is `MotionConfig::default()`. Checked at start-up.
+pub const MOTION_CONFIG: MotionConfig = MotionConfig {
+    tick_us: 1_000_000 / TICK_HZ,
+    feed_max: FeedMmPerMin::from_int(clamp(FEED_MAX_MM_PER_MIN, 1, 1_000_000) as i32),
+    axis_speed_max: [FeedMmPerMin::from_int(clamp(AXIS_SPEED_MM_PER_MIN, 1, 1_000_000) as i32); 3],
+    axis_accel_max_mm_s2: [AXIS_ACCEL_MM_PER_S2; 3],
+    jerk_max_mm_s3: JERK_MM_PER_S3,
+    chord_tolerance_mm: I32F32::from_bits(((CHORD_NM as i64) << 32) / 1_000_000),
+    tangential_share: I16F16::from_bits(
+        ((clamp(TANGENTIAL_SHARE_PERCENT, 0, 100) as i32) << 16) / 100,
+    ),
+};
+
+/// Points the velocity planner buffers (its lookahead). 112 points of
+/// 0.05 mm (5.6 mm) hold 5000 mm/min on a straight line at 1 kHz with the
+/// default limits; a point takes 56 bytes.
+pub const PLANNER_POINTS: usize = 112;
+/// Setpoint ring from the planner (idle) to the tick interrupt, slots
+/// (`ring::Ring<_, N>` holds `N − 1`): the planner runs this
+/// many ticks ahead, so feed hold, resume and override take effect within
+/// `SETPOINT_RING − 1` ticks.
+pub const SETPOINT_RING: usize = 17;
+
 /// Default maximum feed before a `StartPath`, mm/min.
 pub const F_MAX_MM_PER_MIN: i32 = 3000;
 /// Default minimum feed before a `StartPath`, mm/min.
 pub const F_MIN_MM_PER_MIN: i32 = 60;
+/// The default scheduler settings (before any `StartPath`).
+pub const SCHED_CONFIG: SchedulerConfig = SchedulerConfig::new(
+    FeedMmPerMin::from_int(F_MAX_MM_PER_MIN),
+    FeedMmPerMin::from_int(F_MIN_MM_PER_MIN),
+);
 
 /// Lookahead window of the scheduler, points (the paper's WS).
 pub const WS: usize = 30;
 /// Average filter length, feeds.
 pub const AVG: usize = 9;
 /// Points the scheduler holds (must exceed `1 + WS + AVG/2`).
-pub const SCHED_CAP: usize = 40;
+pub const SCHED_CAP: usize = 36;
 
 /// Link command queue (USART task → scheduler), slots; the credit window
-/// is its free room (`heapless::spsc::Queue<_, N>` holds `N − 1`).
-pub const CMD_QUEUE: usize = 33;
+/// is its free room (`ring::Ring<_, N>` holds `N − 1`).
+pub const CMD_QUEUE: usize = 13;
 /// The credit: commands the host may have outstanding (the queue's room).
 pub const CMD_CREDIT: u32 = CMD_QUEUE as u32 - 1;
-/// Scheduled segments in flight from the scheduler to the tick task.
-pub const SEG_QUEUE: usize = 8;
-/// Segments the interpolator itself holds (its stopping lookahead).
-pub const INTERP_SEGMENTS: usize = 24;
-/// Transmit buffer, bytes.
-pub const TX_BUFFER: usize = 1024;
+/// Transmit buffer, bytes (with the command queue's 12 slots, sized so that
+/// the board build stays within 12 KiB of static RAM).
+pub const TX_BUFFER: usize = 384;
 /// Send a credit update after this many commands were taken from the queue.
 pub const CREDIT_BATCH: u32 = 8;
+
+/// `v` within `lo..=hi` (a `const` `Ord::clamp`).
+const fn clamp(v: u32, lo: u32, hi: u32) -> u32 {
+    if v < lo {
+        lo
+    } else if v > hi {
+        hi
+    } else {
+        v
+    }
+}

@@ -5,8 +5,10 @@
 //! | module | what |
 //! |---|---|
 //! | [`board`] | the chip and pins: clocks, USART1, step/dir GPIO (one file per board) |
-//! | [`config`] | build-time settings: tick rate, acceleration, steps/mm, queue sizes |
-//! | [`motion`] | the scheduler feeding the interpolator, and the per-tick work |
+//! | [`config`] | build-time settings: tick rate, machine limits, steps/mm, buffer sizes |
+//! | [`motion`] | the scheduler feeding the velocity planner, the setpoint ring, the per-tick work |
+//! | [`replay`] | scheduler + planner over a whole path, fixed feeding policy, checksum (cost benchmark; shared with a host test) |
+//! | [`ring`] | lock-free single-producer single-consumer ring (setpoints, commands), panic-free |
 //! | [`stepper`] | step/direction outputs on `embedded-hal` pins |
 //! | [`measure`] | SysTick cycle counter, stack high-water mark |
 #![no_std]
@@ -16,6 +18,8 @@ pub mod board;
 pub mod config;
 pub mod measure;
 pub mod motion;
+pub mod replay;
+pub mod ring;
 pub mod stepper;
 
 #[cfg(feature = "qemu")]

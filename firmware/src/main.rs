@@ -2,13 +2,14 @@
 //!
 //! | task | runs on | priority | does |
 //! |---|---|---|---|
-//! | `tick` | SysTick (default 1 kHz) | 3 (highest) | interpolator step, step/dir outputs |
-//! | `link_rx` | USART1 receive | 2 | frames → commands (credit-checked), immediate hold/resume/override, status |
-//! | `idle` | background | 0 | scheduler (lookahead, fuzzy feed), segment preparation, transmit, stack probe |
+//! | `tick` | SysTick (default 1 kHz) | 3 (highest) | next setpoint from the ring to the step/dir outputs |
+//! | `link_rx` | USART1 receive | 2 | frames → commands (credit-checked), hold/resume/override requests, status |
+//! | `idle` | background | 0 | scheduler (lookahead, fuzzy feed), velocity planner, ticks generated ahead into the ring, transmit, stack probe |
 //!
-//! Queues (`heapless::spsc`, lock-free): commands link → idle (its free room
-//! is the host's credit), segments idle → tick. The transmit buffer is a
-//! shared resource (link and idle write replies, idle sends them).
+//! Queues (`ring`, lock-free): commands link → idle (its free room
+//! is the host's credit), setpoints idle → tick (the planner runs up to
+//! `SETPOINT_RING − 1` ticks ahead). The transmit buffer is a shared
+//! resource (link and idle write replies, idle sends them).
 #![no_std]
 #![no_main]
 
@@ -16,35 +17,43 @@ use fuzzy_firmware as _;
 
 #[rtic::app(device = stm32f4::stm32f405, peripherals = true)]
 mod app {
-    use fuzzy_core::interpolator::MotionState;
+    use core::mem::MaybeUninit;
+
+    use fuzzy_core::planner::MotionState;
     use fuzzy_core::units::Point3Mm;
     use fuzzy_firmware::board::{self, Pin, UsartRx, UsartTx};
     use fuzzy_firmware::config::{
-        CMD_CREDIT, CMD_QUEUE, CREDIT_BATCH, SEG_QUEUE, STEPS_PER_MM, TICK_HZ, TX_BUFFER,
+        CMD_CREDIT, CMD_QUEUE, CREDIT_BATCH, FEED_MAX_MM_PER_MIN, PLANNER_POINTS, SETPOINT_RING,
+        STEPS_PER_MM, TICK_HZ, TX_BUFFER,
     };
     use fuzzy_firmware::measure::{self, StackProbe};
     use fuzzy_firmware::motion::{
-        self, config_from_link, point_from_link, Cmd, Controls, Feeder, Interp, Output, SegItem,
-        INTERP_CONFIG,
+        config_from_link, new_plan, point_from_link, Cmd, Controls, Executor, Feeder, Output, Plan,
+        PlanInput, Planner, Setpoint,
     };
+    use fuzzy_firmware::ring::{Consumer, Producer, Ring};
     use fuzzy_firmware::stepper::Axes;
-    use heapless::spsc::{Consumer, Producer, Queue};
     use heapless::Deque;
     use link::{DeviceMsg, ErrorCode, FrameReader, HostMsg, Motion, Status};
     use rtic::Mutex;
 
-    /// What the tick publishes for status replies.
-    #[derive(Clone, Copy, Default)]
-    pub struct Snapshot {
-        pos: [i64; 3],
-        feed_bits: i64,
-        state: MotionState,
-        override_percent: u16,
-        queued: u16,
-        done: u32,
+    /// What idle publishes for status replies.
+    #[derive(Clone, Copy, Default, PartialEq, Eq)]
+    pub struct IdleInfo {
+        /// Points in the scheduler's lookahead.
+        points_held: u16,
+        /// Points in the planner.
+        planned: u16,
+        /// The planner's path index.
+        point: u32,
         underruns: u32,
-        ticks: u32,
-        worst_tick_cycles: u32,
+        override_percent: u16,
+        /// Stack high-water mark, bytes.
+        stack: u32,
+        /// Setpoints generated since boot.
+        generated: u32,
+        /// Checksum of their positions.
+        checksum: u32,
     }
 
     /// Link sequence state (written by `link_rx`, read by idle).
@@ -65,29 +74,30 @@ mod app {
     struct Shared {
         tx: Deque<u8, TX_BUFFER>,
         controls: Controls,
-        snapshot: Snapshot,
+        /// The tick's state and counters (read for status replies).
+        exec: Executor,
         link_state: LinkState,
-        /// Points in the scheduler's lookahead, stack high-water mark.
-        idle_info: (u16, u32),
+        idle_info: IdleInfo,
     }
 
     #[local]
     struct Local {
-        interp: Interp,
-        seg_rx: Consumer<'static, SegItem>,
+        sp_rx: Consumer<'static, Setpoint, SETPOINT_RING>,
         axes: Axes<Pin, Pin>,
         rx: UsartRx,
         reader: FrameReader,
-        cmd_tx: Producer<'static, Cmd>,
+        cmd_tx: Producer<'static, Cmd, CMD_QUEUE>,
         tx_port: UsartTx,
-        cmd_rx: Consumer<'static, Cmd>,
-        seg_tx: Producer<'static, SegItem>,
+        cmd_rx: Consumer<'static, Cmd, CMD_QUEUE>,
+        sp_tx: Producer<'static, Setpoint, SETPOINT_RING>,
         feeder: Feeder,
+        planner: Planner,
     }
 
     #[init(local = [
-        cmds: Queue<Cmd, CMD_QUEUE> = Queue::new(),
-        segs: Queue<SegItem, SEG_QUEUE> = Queue::new(),
+        cmds: Ring<Cmd, CMD_QUEUE> = Ring::new(),
+        setpoints: Ring<Setpoint, SETPOINT_RING> = Ring::new(),
+        plan: MaybeUninit<Plan> = MaybeUninit::uninit(),
     ])]
     fn init(cx: init::Context) -> (Shared, Local, init::Monotonics) {
         let mut core = cx.core;
@@ -97,68 +107,86 @@ mod app {
             defmt::error!("command queue smaller than the credit");
             fuzzy_firmware::fail()
         }
-        let (seg_tx, seg_rx) = cx.local.segs.split();
-        let Ok(interp) = Interp::new(INTERP_CONFIG, Point3Mm::ORIGIN) else {
-            defmt::error!("bad interpolator settings {}", INTERP_CONFIG);
+        let (mut sp_tx, sp_rx) = cx.local.setpoints.split();
+        let plan = match new_plan(cx.local.plan) {
+            Ok(p) => p,
+            Err(e) => {
+                defmt::error!("bad planner settings: {}", e);
+                fuzzy_firmware::fail()
+            }
+        };
+        let accel_bits = plan.accel_limit_mm_s2().to_bits();
+        let Ok(mut planner) = Planner::new(plan, Point3Mm::ORIGIN) else {
+            defmt::error!("planner refused the start point");
             fuzzy_firmware::fail()
         };
-        let Ok(feeder) = Feeder::new(Point3Mm::ORIGIN) else {
+        let Ok(feeder) = Feeder::new() else {
             defmt::error!("bad scheduler settings");
             fuzzy_firmware::fail()
         };
+        // Setpoints ready before the first tick.
+        planner.fill(&mut sp_tx);
+        // mm/s², rounded up (the limit, for the host's checks).
+        let accel =
+            ((accel_bits.max(0) as u64 + u32::MAX as u64) >> 32).min(u32::MAX as u64) as u32;
         let mut tx = Deque::new();
         let window_end = CMD_CREDIT;
         send(
             &mut tx,
             &DeviceMsg::Hello {
                 tick_hz: TICK_HZ,
-                accel_mm_per_s2: INTERP_CONFIG.accel_mm_per_s2,
+                accel_mm_per_s2: accel,
                 window_end,
+                feed_max_mm_per_min: FEED_MAX_MM_PER_MIN,
+                planner_points: PLANNER_POINTS as u16,
             },
+            0,
         );
         measure::set_tick_period_us(1_000_000 / TICK_HZ);
         measure::start_tick_timer(&mut core.SYST, TICK_HZ);
         defmt::info!(
-            "fuzzy feed controller: tick {=u32} Hz, accel {=u32} mm/s2, credit {=u32}",
+            "fuzzy feed controller: tick {=u32} Hz, accel {=u32} mm/s2, feed max {=u32} mm/min, planner {=usize} points, credit {=u32}",
             TICK_HZ,
-            INTERP_CONFIG.accel_mm_per_s2,
+            accel,
+            FEED_MAX_MM_PER_MIN,
+            PLANNER_POINTS,
             window_end
         );
         (
             Shared {
                 tx,
                 controls: Controls::default(),
-                snapshot: Snapshot {
-                    override_percent: 100,
-                    ..Snapshot::default()
-                },
+                exec: Executor::new(Point3Mm::ORIGIN),
                 link_state: LinkState::default(),
-                idle_info: (0, 0),
+                idle_info: IdleInfo {
+                    override_percent: 100,
+                    ..IdleInfo::default()
+                },
             },
             Local {
-                interp,
-                seg_rx,
+                sp_rx,
                 axes: Axes::new(b.axes, STEPS_PER_MM, Point3Mm::ORIGIN),
                 rx: b.rx,
                 reader: FrameReader::new(),
                 cmd_tx,
                 tx_port: b.tx,
                 cmd_rx,
-                seg_tx,
+                sp_tx,
                 feeder,
+                planner,
             },
             init::Monotonics(),
         )
     }
 
-    /// Encode `msg` into the transmit buffer; `false` (nothing queued) if it
-    /// does not fit.
-    fn send(tx: &mut Deque<u8, TX_BUFFER>, msg: &DeviceMsg) -> bool {
+    /// Encode `msg` into the transmit buffer, leaving `keep` bytes free;
+    /// `false` (nothing queued) if it does not fit.
+    fn send(tx: &mut Deque<u8, TX_BUFFER>, msg: &DeviceMsg, keep: usize) -> bool {
         let mut frame = [0u8; link::FRAME_MAX];
         let Ok(n) = link::encode(msg, &mut frame) else {
             return false;
         };
-        if tx.capacity() - tx.len() < n {
+        if tx.capacity() - tx.len() < n + keep {
             return false;
         }
         for b in frame.iter().take(n) {
@@ -167,38 +195,39 @@ mod app {
         true
     }
 
-    /// The interpolator: highest priority, every timer period.
-    #[task(binds = SysTick, priority = 3, local = [interp, seg_rx, axes, worst: u32 = 0], shared = [controls, snapshot])]
-    fn tick(cx: tick::Context) {
+    /// Transmit room link_rx leaves to idle: idle's reports of what the
+    /// planner took (at most two `Planned` or one `Scheduled`, 32 bytes
+    /// each at most) must never be dropped, or the host could not replay
+    /// the planner's inputs.
+    const IDLE_RESERVE: usize = 64;
+
+    /// Send what the planner took (room was checked: [`IDLE_RESERVE`]).
+    fn report(sh: &mut idle::SharedResources, input: PlanInput) {
+        let msg = input.to_msg();
+        if !sh.tx.lock(|tx| send(tx, &msg, 0)) {
+            defmt::error!("planner report dropped");
+        }
+    }
+
+    /// The tick: highest priority, every timer period. Only the next
+    /// setpoint (generated ahead by idle) to the outputs.
+    #[task(binds = SysTick, priority = 3, local = [sp_rx, axes], shared = [exec])]
+    fn tick(mut cx: tick::Context) {
         let t0 = measure::cycles_in_period();
         let local = cx.local;
-        let (mut controls, mut snapshot) = (cx.shared.controls, cx.shared.snapshot);
-        let r = controls.lock(|c| motion::tick(local.interp, local.seg_rx, c, local.axes));
-        let ip = &*local.interp;
-        let c = ip.counters();
-        // From entry to here (the wake-up latency is not the tick's cost,
-        // and under QEMU's -icount it depends on host timing).
-        let dt = measure::cycles_in_period_since(t0);
-        if dt > *local.worst {
-            *local.worst = dt;
-        }
-        let worst = *local.worst;
-        snapshot.lock(|s| {
-            s.pos = r.position.to_bits();
-            s.feed_bits = ip.feed().0.to_bits();
-            s.state = ip.state();
-            s.override_percent = ip.override_percent();
-            s.queued = ip.queued() as u16;
-            s.done = c.completed;
-            s.underruns = c.underruns;
-            s.ticks = c.ticks;
-            s.worst_tick_cycles = worst;
+        // The highest priority: no actual lock.
+        cx.shared.exec.lock(|e| {
+            e.tick(local.sp_rx, local.axes);
+            // From entry to here (the wake-up latency is not the tick's
+            // cost, and under QEMU's -icount it depends on host timing).
+            let dt = measure::cycles_in_period_since(t0);
+            e.worst_cycles = e.worst_cycles.max(dt);
         });
         measure::count_tick();
     }
 
     /// The link receiver: every byte, frames decoded as they complete.
-    #[task(binds = USART1, priority = 2, local = [rx, reader, cmd_tx], shared = [tx, controls, snapshot, link_state, idle_info])]
+    #[task(binds = USART1, priority = 2, local = [rx, reader, cmd_tx], shared = [tx, controls, exec, link_state, idle_info])]
     fn link_rx(cx: link_rx::Context) {
         let local = cx.local;
         let mut sh = cx.shared;
@@ -221,7 +250,7 @@ mod app {
                     DeviceMsg::Error { code, expected_seq }
                 }
             };
-            let sent = sh.tx.lock(|tx| send(tx, &reply));
+            let sent = sh.tx.lock(|tx| send(tx, &reply, IDLE_RESERVE));
             if !sent {
                 sh.link_state
                     .lock(|l| l.tx_dropped = l.tx_dropped.wrapping_add(1));
@@ -232,7 +261,7 @@ mod app {
     /// One decoded message: queue it or act on it; the reply.
     fn handle(
         msg: HostMsg,
-        cmd_tx: &mut Producer<'static, Cmd>,
+        cmd_tx: &mut Producer<'static, Cmd, CMD_QUEUE>,
         sh: &mut link_rx::SharedResources,
     ) -> Result<DeviceMsg, ErrorCode> {
         let queued = match msg {
@@ -265,7 +294,7 @@ mod app {
                 feed_cap_mm_per_min,
             } => (
                 seq,
-                point_from_link(seq, pos_mm, feed_cap_mm_per_min).map(Cmd::Point),
+                point_from_link(seq, pos_mm, feed_cap_mm_per_min).map(Cmd::point),
             ),
             HostMsg::EndPath { seq } => (seq, Some(Cmd::EndPath)),
         };
@@ -302,40 +331,45 @@ mod app {
     }
 
     fn status(sh: &mut link_rx::SharedResources) -> DeviceMsg {
-        let s = sh.snapshot.lock(|s| *s);
+        let s = sh.exec.lock(|e| *e);
         let l = sh.link_state.lock(|l| *l);
-        let (held, stack) = sh.idle_info.lock(|i| *i);
+        let i = sh.idle_info.lock(|i| *i);
         DeviceMsg::Status(Status {
-            motion: match s.state {
-                MotionState::Idle => Motion::Idle,
-                MotionState::Running => Motion::Running,
-                MotionState::Held => Motion::Held,
+            motion: match s.now.state {
+                MotionState::Idle | MotionState::Done => Motion::Idle,
+                MotionState::Moving => Motion::Running,
+                MotionState::Holding => Motion::Held,
                 MotionState::Starved => Motion::Starved,
             },
-            pos_mm: s.pos,
-            feed_mm_per_min: s.feed_bits,
-            override_percent: s.override_percent,
+            pos_mm: s.now.pos.to_bits(),
+            feed_mm_per_min: s.now.feed().0.to_bits(),
+            override_percent: i.override_percent,
             next_seq: l.next_seq,
             window_end: window_end(&l),
-            segments_queued: s.queued,
-            points_held: held,
-            segments_done: s.done,
-            underruns: s.underruns,
+            planned_points: i.planned,
+            points_held: i.points_held,
+            point_reached: i.point,
+            underruns: i.underruns,
             bad_frames: l.bad_frames,
-            worst_tick_cycles: s.worst_tick_cycles,
-            stack_used_bytes: stack,
+            worst_tick_cycles: s.worst_cycles,
+            stack_used_bytes: i.stack,
             ticks: s.ticks,
+            moving_ticks: s.moving_ticks,
+            empty_ticks: s.empty_ticks,
+            generated_ticks: i.generated,
+            positions_checksum: i.checksum,
         })
     }
 
-    /// Background: the scheduler, the transmitter, the stack probe.
-    #[idle(local = [cmd_rx, seg_tx, tx_port, feeder, probe: StackProbe = StackProbe::new()], shared = [tx, link_state, idle_info])]
+    /// Background: the scheduler, the planner (ticks generated ahead into
+    /// the ring), the transmitter, the stack probe.
+    #[idle(local = [cmd_rx, sp_tx, tx_port, feeder, planner, probe: StackProbe = StackProbe::new()], shared = [tx, controls, link_state, idle_info])]
     fn idle(cx: idle::Context) -> ! {
         let local = cx.local;
         let mut sh = cx.shared;
-        let feeder = local.feeder;
+        let (feeder, planner) = (local.feeder, local.planner);
         let mut taken_since_ack = 0u32;
-        let mut last_state = (0u16, 0u32);
+        let mut last_info = IdleInfo::default();
         loop {
             let mut busy = false;
 
@@ -350,11 +384,35 @@ mod app {
                 tx.len()
             });
 
-            // 2. One scheduler step, if there is room for its output.
-            let room = sh
-                .tx
-                .lock(|tx| tx.capacity() - tx.len() >= 2 * link::FRAME_MAX);
-            if room && local.seg_tx.ready() {
+            // Room for what the planner takes next (link_rx leaves
+            // IDLE_RESERVE bytes to idle, so a report always fits).
+            let room = sh.tx.lock(|tx| tx.capacity() - tx.len() >= IDLE_RESERVE);
+
+            // 2. Hold, resume, override (they reach the tool after the
+            //    setpoints already in the ring).
+            if room {
+                let c = sh.controls.lock(core::mem::take);
+                if c != Controls::default() {
+                    for input in planner.apply(c).into_iter().flatten() {
+                        report(&mut sh, input);
+                    }
+                }
+            }
+
+            // 3. Keep the ring full.
+            planner.fill(local.sp_tx);
+
+            // 4. A scheduled point into the planner, or one scheduler step.
+            if room && planner.waiting() {
+                match planner.push_pending() {
+                    Ok(Some(input)) => {
+                        busy = true;
+                        report(&mut sh, input);
+                    }
+                    Ok(None) => {}
+                    Err(e) => defmt::error!("planner refused a point: {}", e),
+                }
+            } else if room {
                 let out = if feeder.is_draining() {
                     busy = true;
                     feeder.drain()
@@ -373,44 +431,47 @@ mod app {
                 } else {
                     Output::Nothing
                 };
-                match out {
-                    Output::Point(s, item) => {
-                        let _ = local.seg_tx.enqueue(item);
-                        let report = DeviceMsg::Scheduled {
-                            seq: s.point.tag,
-                            index: s.index,
-                            feed_mm_per_min: s.feed.0.to_bits(),
-                        };
-                        sh.tx.lock(|tx| send(tx, &report));
-                    }
-                    Output::PathEnd => {
-                        let _ = local.seg_tx.enqueue(SegItem::EndOfPath);
-                        defmt::info!("path scheduled");
-                    }
-                    Output::Nothing => {}
+                if out == Output::PathEnd {
+                    defmt::info!("path scheduled");
+                }
+                match planner.take(out) {
+                    Ok(Some(input)) => report(&mut sh, input),
+                    Ok(None) => {}
+                    Err(e) => defmt::error!("planner refused a point: {}", e),
                 }
             }
 
-            // 3. Credit: tell the host about freed queue slots.
+            // 5. Credit: tell the host about freed queue slots.
             if taken_since_ack >= CREDIT_BATCH || (taken_since_ack > 0 && !busy) {
                 let msg = sh.link_state.lock(|l| DeviceMsg::Ack {
                     next_seq: l.next_seq,
                     window_end: window_end(l),
                 });
-                if sh.tx.lock(|tx| send(tx, &msg)) {
+                if sh.tx.lock(|tx| send(tx, &msg, 0)) {
                     taken_since_ack = 0;
                 }
             }
 
-            // 4. Stack high-water mark, a little at a time.
-            let stack = local.probe.step(256);
-            let state = (feeder.held() as u16, stack);
-            if state != last_state {
-                last_state = state;
-                sh.idle_info.lock(|i| *i = state);
+            // 6. Stack high-water mark (a little at a time), figures for
+            //    the status.
+            let info = IdleInfo {
+                points_held: feeder.held() as u16,
+                planned: planner.planned() as u16,
+                point: planner.point_reached(),
+                underruns: planner.underruns(),
+                override_percent: planner.override_percent(),
+                stack: local.probe.step(256),
+                generated: planner.generated(),
+                checksum: planner.checksum32(),
+            };
+            if info != last_info {
+                last_info = info;
+                sh.idle_info.lock(|i| *i = info);
             }
 
-            if !busy && pending == 0 && !local.cmd_rx.ready() {
+            // Sleep until an interrupt when there is nothing to do (a tick
+            // frees a ring slot, a byte brings a command).
+            if !busy && pending == 0 && !local.cmd_rx.ready() && !local.sp_tx.ready() {
                 rtic::export::wfi();
             }
         }

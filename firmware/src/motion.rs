@@ -1,69 +1,77 @@
 //! The motion pipeline of the controller, without the chip:
 //!
 //! ```text
-//! link (USART task) ──Cmd──► [spsc] ──► Feeder (idle: fuzzy scheduler,
-//!     segment preparation) ──SegItem──► [spsc] ──► tick task (interpolator,
-//!     step/dir outputs)
+//! link (USART task) ──Cmd──► [ring] ──► idle: Feeder (fuzzy scheduler)
+//!     ──ScheduledPoint──► Planner (velocity planner, fuzzy_core::planner,
+//!     ticks generated ahead) ──Setpoint──► [ring] ──► tick interrupt:
+//!     Executor (one setpoint per tick, step/dir outputs)
 //! ```
 //!
-//! The [`Feeder`] turns queued commands into scheduled points
-//! (`fuzzy_core::scheduler`) and those into interpolator segments
-//! (`fuzzy_core::interpolator`); [`tick`] is the whole per-tick work of the
-//! timer interrupt. Both run unchanged in the cost benchmark.
+//! [`Motion::tick`] costs too much for the tick interrupt in the worst case
+//! (tens of thousands of instructions), so, like Grbl's segment buffer, the
+//! background generates the ticks ahead into a small ring of setpoints
+//! ([`SETPOINT_RING`]` − 1` ticks) and the interrupt only takes the next one
+//! ([`Executor::tick`]). Feed hold, resume and override reach the planner
+//! from the background, so they take effect after the setpoints already in
+//! the ring: within `SETPOINT_RING − 1` ticks. An empty ring at a tick (the
+//! background fell behind; never seen in the tests) holds the position and
+//! is counted ([`Executor::empty_ticks`]).
+//!
+//! The same code runs in the application (`src/main.rs`) and the cost
+//! benchmark (`src/bin/cost.rs`).
 
+use core::mem::MaybeUninit;
+
+use crate::ring::{Consumer, Producer};
 use fixed::types::I32F32;
-use fuzzy_core::interpolator::{Interpolator, InterpolatorConfig, Segment, TickReport};
-use fuzzy_core::lin2021::{Lin2021Controller, CONTROLLER};
-use fuzzy_core::scheduler::{
-    PathPoint, ScheduledPoint, Scheduler, SchedulerConfig, SchedulerError,
-};
+use fuzzy_core::planner::{Motion, MotionError, MotionPoint, MotionState, Tick};
+use fuzzy_core::scheduler::{PathPoint, ScheduledPoint, SchedulerConfig, SchedulerError};
 use fuzzy_core::units::{FeedMmPerMin, Point3Mm};
-use heapless::spsc::Consumer;
 
-use crate::config::{
-    ACCEL_MM_PER_S2, AVG, F_MAX_MM_PER_MIN, F_MIN_MM_PER_MIN, INTERP_SEGMENTS, SCHED_CAP, TICK_HZ,
-    WS,
-};
+use crate::config::{MOTION_CONFIG, PLANNER_POINTS, SCHED_CONFIG};
+use crate::replay;
+pub use crate::replay::Sched;
 use crate::stepper::StepOutput;
 
-/// The scheduler as configured for the firmware.
-pub type Sched = Scheduler<&'static Lin2021Controller, WS, AVG, SCHED_CAP>;
-/// The interpolator as configured for the firmware.
-pub type Interp = Interpolator<INTERP_SEGMENTS>;
+#[allow(unused_imports)] // for the docs
+use crate::config::SETPOINT_RING;
 
-/// The interpolator settings of this build.
-pub const INTERP_CONFIG: InterpolatorConfig = InterpolatorConfig::new(TICK_HZ, ACCEL_MM_PER_S2);
+/// The velocity planner as configured for the firmware.
+pub type Plan = Motion<PLANNER_POINTS>;
 
-/// The default scheduler settings (before any `StartPath`).
-pub const SCHED_CONFIG: SchedulerConfig = SchedulerConfig::new(
-    FeedMmPerMin::from_int(F_MAX_MM_PER_MIN),
-    FeedMmPerMin::from_int(F_MIN_MM_PER_MIN),
-);
-
-/// A command that travels through the queue in order with the points.
+/// A command that travels through the queue in order with the points
+/// (40 bytes: the queue's slots are most of the link's RAM).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, defmt::Format)]
 pub enum Cmd {
     /// Start a path with these settings (ends an open path first).
     StartPath(SchedulerConfig),
     /// The next point.
-    Point(PathPoint),
+    Point {
+        /// Position.
+        pos: Point3Mm,
+        /// Feed cap, mm/min (I32F32 bits; negative: none).
+        feed_cap: i64,
+        /// Its sequence number.
+        tag: u32,
+    },
     /// End of the path: flush the lookahead.
     EndPath,
 }
 
-/// What the scheduler hands the tick task.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, defmt::Format)]
-pub enum SegItem {
-    /// Move along this segment.
-    Seg(Segment),
-    /// The path ends here (running out is not an underrun).
-    EndOfPath,
+impl Cmd {
+    /// A point command.
+    pub fn point(p: PathPoint) -> Cmd {
+        Cmd::Point {
+            pos: p.pos,
+            feed_cap: p.feed_cap.map_or(-1, |f| f.0.to_bits()),
+            tag: p.tag,
+        }
+    }
 }
 
 /// The scheduler side of the pipeline (idle priority).
 pub struct Feeder {
     sched: Sched,
-    last_end: Point3Mm,
     draining: bool,
     after_drain: Option<SchedulerConfig>,
 }
@@ -75,18 +83,17 @@ pub struct Feeder {
 pub enum Output {
     /// Nothing (a point entered the lookahead, or a setting changed).
     Nothing,
-    /// A scheduled point and its segment.
-    Point(ScheduledPoint, SegItem),
+    /// A scheduled point.
+    Point(ScheduledPoint),
     /// The path is complete.
     PathEnd,
 }
 
 impl Feeder {
-    /// A feeder with the default settings, the tool at `start`.
-    pub fn new(start: Point3Mm) -> Result<Self, SchedulerError> {
+    /// A feeder with the default settings.
+    pub fn new() -> Result<Self, SchedulerError> {
         Ok(Feeder {
-            sched: Sched::new(&CONTROLLER, SCHED_CONFIG)?,
-            last_end: start,
+            sched: Sched::new(&fuzzy_core::lin2021::CONTROLLER, SCHED_CONFIG)?,
             draining: false,
             after_drain: None,
         })
@@ -103,17 +110,15 @@ impl Feeder {
         self.sched.held()
     }
 
-    /// The scheduler (for measurements).
-    pub fn scheduler_mut(&mut self) -> &mut Sched {
-        &mut self.sched
-    }
-
-    /// Take the next queued command. At most one output per call, so the
-    /// caller needs room for one segment and one report.
+    /// Take the next queued command. At most one output per call.
     pub fn command(&mut self, cmd: Cmd) -> Result<Output, SchedulerError> {
         match cmd {
-            Cmd::Point(p) => match self.sched.push(p)? {
-                Some(s) => Ok(self.released(s)),
+            Cmd::Point { pos, feed_cap, tag } => match self.sched.push(PathPoint {
+                pos,
+                feed_cap: (feed_cap >= 0).then_some(FeedMmPerMin(I32F32::from_bits(feed_cap))),
+                tag,
+            })? {
+                Some(s) => Ok(Output::Point(s)),
                 None => Ok(Output::Nothing),
             },
             Cmd::EndPath => {
@@ -143,7 +148,7 @@ impl Feeder {
             return Output::Nothing;
         }
         match self.sched.drain() {
-            Some(s) => self.released(s),
+            Some(s) => Output::Point(s),
             None => {
                 self.draining = false;
                 if let Some(c) = self.after_drain.take() {
@@ -154,22 +159,10 @@ impl Feeder {
             }
         }
     }
-
-    /// A released point becomes a segment from the previous one.
-    fn released(&mut self, s: ScheduledPoint) -> Output {
-        let end = s.point.pos;
-        let item = match Segment::between(self.last_end, end, s.feed, s.point.tag, &INTERP_CONFIG) {
-            Ok(seg) => SegItem::Seg(seg),
-            // Impossible: the scheduler refuses such points.
-            Err(_) => SegItem::EndOfPath,
-        };
-        self.last_end = end;
-        Output::Point(s, item)
-    }
 }
 
 /// Feed hold, resume and override requests from the link, taken by the
-/// next tick.
+/// background at its next pass.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Controls {
     /// `Some(true)`: hold; `Some(false)`: resume.
@@ -178,37 +171,377 @@ pub struct Controls {
     pub override_percent: Option<u16>,
 }
 
-/// One interpolator tick: take the segments the scheduler finished (as many
-/// as fit), apply hold/resume/override, advance, drive the outputs.
-pub fn tick<O: StepOutput>(
-    interp: &mut Interp,
-    segments: &mut Consumer<'_, SegItem>,
-    controls: &mut Controls,
-    outputs: &mut O,
-) -> TickReport {
-    while interp.free() > 0 {
-        match segments.dequeue() {
-            // Cannot fail: there is room (checked just above).
-            Some(SegItem::Seg(s)) => {
-                let _ = interp.push(s);
+/// One tick's commanded motion, from the planner to the tick interrupt
+/// (32 bytes).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Setpoint {
+    /// Commanded position, mm.
+    pub pos: Point3Mm,
+    /// Tangential speed, mm/min in Q12 (1/4096 mm/min, up to 10^6 mm/min).
+    pub feed_q12: u32,
+    /// The planner's state.
+    pub state: MotionState,
+    /// The tool moves during this tick (speed > 0).
+    pub moving: bool,
+}
+
+impl Setpoint {
+    /// At rest at `pos`, nothing to do.
+    pub const fn at_rest(pos: Point3Mm) -> Self {
+        Setpoint {
+            pos,
+            feed_q12: 0,
+            state: MotionState::Idle,
+            moving: false,
+        }
+    }
+
+    /// Tangential speed.
+    pub fn feed(&self) -> FeedMmPerMin {
+        FeedMmPerMin(I32F32::from_bits((self.feed_q12 as i64) << 20))
+    }
+
+    /// The setpoint of a planner tick (`plan` converts its speed).
+    pub fn of<const N: usize>(plan: &Motion<N>, t: &Tick) -> Self {
+        let bits = plan.speed_mm_per_min(t.speed).0.to_bits() >> 20;
+        Setpoint {
+            pos: t.pos,
+            feed_q12: bits.clamp(0, u32::MAX as i64) as u32,
+            state: t.state,
+            moving: t.speed > 0,
+        }
+    }
+}
+
+/// The planner side of the pipeline (idle priority): scheduled points into
+/// the velocity planner, its ticks into the setpoint ring.
+///
+/// Every input the planner takes is returned as a [`PlanInput`] with the
+/// number of ticks generated before it (`Planner::generated`), and every
+/// generated position goes into a checksum: the link reports both, so that
+/// the host can replay the same inputs at the same ticks into its own
+/// planner and check the firmware's motion bit for bit
+/// (`tests/src/planned.rs`).
+pub struct Planner {
+    motion: &'static mut Plan,
+    /// A scheduled point waiting for room in the planner (or for the end of
+    /// the previous path).
+    pending: Option<Pending>,
+    /// State of the last generated tick.
+    last: MotionState,
+    /// Path index of the last point the planner reached.
+    point: u32,
+    /// The path's first point was where the tool already was (not pushed:
+    /// the planner's index 0 is that point; see [`replay::already_there`]).
+    merged: bool,
+    /// The planner's path was ended (a point starts a new one).
+    ended: bool,
+    /// Where the planner has the tool (its last generated tick).
+    here: Point3Mm,
+    underruns: u32,
+    override_percent: u16,
+    /// Ticks generated since boot.
+    generated: u32,
+    /// Of every generated position since boot.
+    checksum: replay::Checksum,
+}
+
+/// A scheduled point waiting to enter the planner.
+#[derive(Clone, Copy, Debug)]
+struct Pending {
+    point: MotionPoint,
+    seq: u32,
+    index: u32,
+}
+
+/// An input the planner took, after `tick` generated ticks (reported on the
+/// link: `DeviceMsg::Scheduled` and `DeviceMsg::Planned`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PlanInput {
+    /// A scheduled point went in (or, as the first point of a path where
+    /// the tool already was, merged into the start).
+    Point {
+        /// Its sequence number (the scheduler's tag).
+        seq: u32,
+        /// Its index in the path.
+        index: u32,
+        /// Its scheduled feed, mm/min, I32F32 bits.
+        feed_bits: i64,
+        /// Ticks generated before.
+        tick: u32,
+    },
+    /// A command.
+    Event {
+        /// Ticks generated before.
+        tick: u32,
+        /// What.
+        event: link::PlanEvent,
+    },
+}
+
+impl PlanInput {
+    /// As a link message.
+    pub fn to_msg(self) -> link::DeviceMsg {
+        match self {
+            PlanInput::Point {
+                seq,
+                index,
+                feed_bits,
+                tick,
+            } => link::DeviceMsg::Scheduled {
+                seq,
+                index,
+                feed_mm_per_min: feed_bits,
+                tick,
+            },
+            PlanInput::Event { tick, event } => link::DeviceMsg::Planned { tick, event },
+        }
+    }
+}
+
+/// Why the planner refused a point the scheduler released (cannot happen:
+/// the link checks every value).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, defmt::Format)]
+pub struct Dropped(pub MotionError);
+
+impl Planner {
+    /// The planner in `motion` (built with [`MOTION_CONFIG`]), brought to
+    /// rest at `start`.
+    pub fn new(motion: &'static mut Plan, start: Point3Mm) -> Result<Self, MotionError> {
+        crate::replay::anchor(motion, start)?;
+        Ok(Planner {
+            motion,
+            pending: None,
+            last: MotionState::Done,
+            point: 0,
+            merged: false,
+            ended: true,
+            here: start,
+            underruns: 0,
+            override_percent: 100,
+            generated: 0,
+            checksum: replay::Checksum::default(),
+        })
+    }
+
+    /// The planner (for measurements and settings).
+    pub fn motion(&self) -> &Plan {
+        self.motion
+    }
+
+    /// Whether a scheduled point waits (for room, or for the previous path
+    /// to end).
+    pub fn waiting(&self) -> bool {
+        self.pending.is_some()
+    }
+
+    /// Points in the planner.
+    pub fn planned(&self) -> usize {
+        PLANNER_POINTS - self.motion.free()
+    }
+
+    /// Index in the current path of the last point the planner reached
+    /// (0: where the path started; it runs up to the ring's depth ahead of
+    /// the tool).
+    pub fn point_reached(&self) -> u32 {
+        self.point.wrapping_add(self.merged as u32)
+    }
+
+    /// Entries into `Starved` while moving: the path stopped arriving.
+    pub fn underruns(&self) -> u32 {
+        self.underruns
+    }
+
+    /// The feed override in force, percent.
+    pub fn override_percent(&self) -> u16 {
+        self.override_percent
+    }
+
+    /// Ticks generated since boot.
+    pub fn generated(&self) -> u32 {
+        self.generated
+    }
+
+    /// Checksum of every generated position since boot, 64-bit FNV-1a
+    /// folded to 32 bits (high ⊕ low), as `link::Status` carries it.
+    pub fn checksum32(&self) -> u32 {
+        (self.checksum.0 ^ (self.checksum.0 >> 32)) as u32
+    }
+
+    fn event(&self, event: link::PlanEvent) -> PlanInput {
+        PlanInput::Event {
+            tick: self.generated,
+            event,
+        }
+    }
+
+    /// Apply hold/resume/override requests; what was applied, in order.
+    pub fn apply(&mut self, c: Controls) -> [Option<PlanInput>; 2] {
+        let mut out = [None, None];
+        if let Some(hold) = c.hold {
+            self.motion.set_hold(hold);
+            out[0] = Some(self.event(if hold {
+                link::PlanEvent::Hold
+            } else {
+                link::PlanEvent::Resume
+            }));
+        }
+        if let Some(p) = c.override_percent {
+            if p != self.override_percent {
+                self.override_percent = p;
+                self.motion.set_override(p);
+                out[1] = Some(self.event(link::PlanEvent::Override(p)));
             }
-            Some(SegItem::EndOfPath) => interp.end_path(),
-            None => break,
+        }
+        out
+    }
+
+    /// Take a scheduler output (only when not [`Self::waiting`]); what the
+    /// planner took, if anything (a point may wait: [`Self::push_pending`]).
+    pub fn take(&mut self, out: Output) -> Result<Option<PlanInput>, Dropped> {
+        match out {
+            Output::Point(s) => {
+                self.pending = Some(Pending {
+                    point: MotionPoint::from(&s),
+                    seq: s.point.tag,
+                    index: s.index,
+                });
+                self.push_pending()
+            }
+            Output::PathEnd => {
+                self.motion.end_path();
+                self.ended = true;
+                Ok(Some(self.event(link::PlanEvent::EndPath)))
+            }
+            Output::Nothing => Ok(None),
         }
     }
-    if let Some(hold) = controls.hold.take() {
-        if hold {
-            interp.hold();
-        } else {
-            interp.resume();
+
+    /// Push the waiting point if there is room: what went in. A point of a
+    /// new path waits until the previous one is done, then the planner
+    /// restarts where the tool is.
+    pub fn push_pending(&mut self) -> Result<Option<PlanInput>, Dropped> {
+        let Some(p) = self.pending else {
+            return Ok(None);
+        };
+        let input = PlanInput::Point {
+            seq: p.seq,
+            index: p.index,
+            feed_bits: p.point.feed.0.to_bits(),
+            tick: self.generated,
+        };
+        if self.ended {
+            if self.last != MotionState::Done {
+                // The previous path is still running.
+                return Ok(None);
+            }
+            // At rest at its end (`Done` is only reported at rest): the new
+            // path starts here.
+            self.motion.restart().map_err(Dropped)?;
+            self.ended = false;
+            self.point = 0;
+            self.merged = replay::already_there(&p.point, self.here);
+            if self.merged {
+                self.pending = None;
+                return Ok(Some(input));
+            }
+        }
+        match self.motion.push(p.point) {
+            Ok(()) => {
+                self.pending = None;
+                Ok(Some(input))
+            }
+            Err(MotionError::Full | MotionError::PathEnded) => Ok(None),
+            Err(e) => {
+                self.pending = None;
+                Err(Dropped(e))
+            }
         }
     }
-    if let Some(p) = controls.override_percent.take() {
-        interp.set_override(p);
+
+    /// One tick of the planner as a setpoint.
+    pub fn generate(&mut self) -> Setpoint {
+        let t = self.motion.tick();
+        if self.last == MotionState::Moving && t.state == MotionState::Starved {
+            self.underruns = self.underruns.wrapping_add(1);
+        }
+        self.last = t.state;
+        self.point = t.point;
+        self.here = t.pos;
+        self.generated = self.generated.wrapping_add(1);
+        self.checksum.add_pos(t.pos);
+        Setpoint::of(self.motion, &t)
     }
-    let r = interp.tick();
-    outputs.update(r.position);
-    r
+
+    /// Fill the ring; returns how many setpoints were added.
+    pub fn fill(&mut self, ring: &mut Producer<'_, Setpoint, SETPOINT_RING>) -> usize {
+        let mut n = 0;
+        while ring.ready() {
+            let _ = ring.enqueue(self.generate());
+            n += 1;
+        }
+        n
+    }
+}
+
+/// The tick interrupt's side: the setpoint in force and counters (also
+/// what status replies report).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Executor {
+    /// The setpoint in force.
+    pub now: Setpoint,
+    /// Ticks since reset.
+    pub ticks: u32,
+    /// Ticks with the ring empty (position held).
+    pub empty_ticks: u32,
+    /// Ticks with the tool moving (speed > 0) since the current path began
+    /// to move.
+    pub moving_ticks: u32,
+    /// Worst tick interrupt so far, SysTick cycles (set by the caller).
+    pub worst_cycles: u32,
+    /// At rest at a path's start or end: the next motion starts a new count.
+    rested: bool,
+}
+
+impl Executor {
+    /// At rest at `start`.
+    pub const fn new(start: Point3Mm) -> Self {
+        Executor {
+            now: Setpoint::at_rest(start),
+            ticks: 0,
+            empty_ticks: 0,
+            moving_ticks: 0,
+            worst_cycles: 0,
+            rested: true,
+        }
+    }
+
+    /// One tick: the next setpoint to the outputs (or, if there is none,
+    /// the position held and the miss counted).
+    pub fn tick<O: StepOutput>(
+        &mut self,
+        ring: &mut Consumer<'_, Setpoint, SETPOINT_RING>,
+        outputs: &mut O,
+    ) {
+        self.ticks = self.ticks.wrapping_add(1);
+        let Some(sp) = ring.dequeue() else {
+            self.empty_ticks = self.empty_ticks.wrapping_add(1);
+            self.now.feed_q12 = 0;
+            self.now.moving = false;
+            return;
+        };
+        if matches!(sp.state, MotionState::Idle | MotionState::Done) {
+            self.rested = true;
+        } else if sp.moving {
+            if self.rested {
+                self.moving_ticks = 0;
+                self.rested = false;
+            }
+            self.moving_ticks = self.moving_ticks.wrapping_add(1);
+        }
+        outputs.update(sp.pos);
+        self.now = sp;
+    }
 }
 
 /// A point from the link's raw fields, if every value is in range for the
@@ -246,4 +579,11 @@ pub fn config_from_link(f_max_bits: i64, f_min_bits: i64) -> Option<SchedulerCon
         FeedMmPerMin(I32F32::from_bits(f_min_bits)),
     );
     c.validate().ok().map(|_| c)
+}
+
+/// A planner in `slot` (a static: 6.5 KB), with [`MOTION_CONFIG`].
+pub fn new_plan(
+    slot: &'static mut MaybeUninit<Plan>,
+) -> Result<&'static mut Plan, fuzzy_core::planner::ConfigError> {
+    Ok(slot.write(Plan::new(MOTION_CONFIG)?))
 }

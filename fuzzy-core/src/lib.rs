@@ -39,12 +39,16 @@
 #![deny(missing_docs)]
 
 pub mod average;
+pub mod cho;
+pub mod contour;
 pub mod curvature;
 mod fixmath;
 pub mod fuzzy;
 pub mod interpolator;
 pub mod lin2021;
 pub mod lookahead;
+pub mod nagata;
+pub mod njiri;
 pub mod planner;
 #[cfg(feature = "std")]
 pub mod reference;

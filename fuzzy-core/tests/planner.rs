@@ -1,28 +1,48 @@
 //! The velocity planner (issue 6): limits never exceeded, cycle time against
-//! the offline time-optimal reference, short segments held at full feed.
-//! Run with `--nocapture` for the figures.
+//! the offline time-optimal reference, short segments held at full feed,
+//! and the controller behaviours around it (feed hold, underrun, override,
+//! restart, bad input). Run with `--nocapture` for the figures.
+//!
+//! Every figure is measured from the commanded positions the executor emits
+//! (finite differences), not from the planner's own state.
 
 use fuzzy_core::lin2021::{Lin2021Controller, CONTROLLER};
-use fuzzy_core::planner::{Motion, MotionConfig, MotionPoint, MotionState};
+use fuzzy_core::planner::{
+    ConfigError, Motion, MotionConfig, MotionError, MotionPoint, MotionState, PlannedPoint,
+};
 use fuzzy_core::reference;
 use fuzzy_core::scheduler::{PathPoint, Scheduler, SchedulerConfig};
-use fuzzy_core::units::{CurvaturePerMm, FeedMmPerMin, Point3Mm};
+use fuzzy_core::units::{CurvaturePerMm, FeedMmPerMin, Fx, Point3Mm};
+use proptest::prelude::*;
 
-const TS: f64 = 1e-3;
-
-fn shape(name: &str) -> Vec<[f64; 3]> {
-    let path = format!(
-        "{}/../tests/data/shapes/{name}.csv",
+fn data(rel: &str) -> String {
+    std::fs::read_to_string(format!(
+        "{}/../tests/data/{rel}",
         env!("CARGO_MANIFEST_DIR")
-    );
-    std::fs::read_to_string(path)
-        .unwrap()
+    ))
+    .unwrap()
+}
+
+/// x, y, z (and the programmed feed if the file has a 4th column).
+fn csv(rel: &str) -> Vec<([f64; 3], Option<f64>)> {
+    data(rel)
         .lines()
         .filter(|l| !l.starts_with('#') && !l.starts_with('x'))
         .map(|l| {
-            let v: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
-            [v[0], v[1], v[2]]
+            let v: Vec<&str> = l.split(',').collect();
+            let f = |i: usize| v[i].trim().parse::<f64>().unwrap();
+            (
+                [f(0), f(1), f(2)],
+                v.get(3).and_then(|s| s.trim().parse().ok()),
+            )
         })
+        .collect()
+}
+
+fn shape(name: &str) -> Vec<[f64; 3]> {
+    csv(&format!("shapes/{name}.csv"))
+        .into_iter()
+        .map(|p| p.0)
         .collect()
 }
 
@@ -38,11 +58,11 @@ fn scheduled(xyz: &[[f64; 3]], f_max: i32) -> Vec<MotionPoint> {
     out
 }
 
-/// Constant feed, curvature from the three-point formula.
-fn constant(xyz: &[[f64; 3]], feed: i32) -> Vec<MotionPoint> {
+/// Programmed feeds (mm/min; `None` = `feed`), curvature from three points.
+fn programmed(xyz: &[([f64; 3], Option<f64>)], feed: f64) -> Vec<MotionPoint> {
     let p: Vec<Point3Mm> = xyz
         .iter()
-        .map(|p| Point3Mm::from_f64(p[0], p[1], p[2]).unwrap())
+        .map(|(p, _)| Point3Mm::from_f64(p[0], p[1], p[2]).unwrap())
         .collect();
     (0..p.len())
         .map(|i| {
@@ -52,106 +72,244 @@ fn constant(xyz: &[[f64; 3]], feed: i32) -> Vec<MotionPoint> {
             } else {
                 CurvaturePerMm::ZERO
             };
+            let f = xyz[i].1.unwrap_or(feed).min(1e6);
             MotionPoint {
                 pos: p[i],
-                feed: FeedMmPerMin::from_int(feed),
+                feed: FeedMmPerMin::from_f64(f),
                 curvature: k,
             }
         })
         .collect()
 }
 
-struct Figures {
-    time_s: f64,
-    ref_s: f64,
+fn constant(xyz: &[[f64; 3]], feed: i32) -> Vec<MotionPoint> {
+    let v: Vec<_> = xyz.iter().map(|p| (*p, None)).collect();
+    programmed(&v, feed as f64)
+}
+
+/// One tick as recorded: position, arc length, speed (mm/s), acceleration
+/// (mm/s²), state, point index.
+#[derive(Clone, Copy, Debug)]
+struct T {
+    pos: [f64; 3],
+    s: f64,
+    v: f64,
+    a: f64,
+    state: MotionState,
+    point: u32,
+}
+
+fn record<const N: usize>(m: &mut Motion<N>, ts: f64, out: &mut Vec<T>) -> MotionState {
+    let t = m.tick();
+    out.push(T {
+        pos: t.pos.to_f64(),
+        s: t.s_mm.to_num(),
+        v: m.speed_mm_per_min(t.speed).to_f64() / 60.0,
+        a: t.accel as f64 / 4294967296.0 / (ts * ts),
+        state: t.state,
+        point: t.point,
+    });
+    t.state
+}
+
+fn ts(cfg: &MotionConfig) -> f64 {
+    cfg.tick_us as f64 * 1e-6
+}
+
+/// Stream `points` through a `Motion<256>`: push while there is room, tick
+/// when full; `event(tick index, motion)` runs before every tick.
+fn drive(
+    points: &[MotionPoint],
+    cfg: MotionConfig,
+    mut event: impl FnMut(usize, &mut Motion<256>),
+) -> Vec<T> {
+    let ts = ts(&cfg);
+    let mut m: Motion<256> = Motion::new(cfg).unwrap();
+    let mut ticks = Vec::new();
+    for p in points {
+        while m.push(*p) == Err(MotionError::Full) {
+            event(ticks.len(), &mut m);
+            record(&mut m, ts, &mut ticks);
+        }
+    }
+    m.end_path();
+    loop {
+        event(ticks.len(), &mut m);
+        if record(&mut m, ts, &mut ticks) == MotionState::Done {
+            break;
+        }
+        assert!(ticks.len() < 5_000_000, "never finished");
+    }
+    ticks
+}
+
+/// Peak ratios to the limits, from the commanded positions.
+#[derive(Debug, Default)]
+struct Peaks {
     axis_vel: f64,
     axis_acc: f64,
     tang_acc: f64,
     tang_jerk: f64,
+    /// Tangential jerk from the third difference of the arc length.
     s_jerk: f64,
-    over_ceiling_mm_min: f64,
-    chord_um: f64,
-    min_tick_speed_mm_min: f64,
 }
 
-fn run(points: &[MotionPoint], cfg: MotionConfig) -> Figures {
-    // The planned ceilings and caps of the whole path, for the reference.
-    let mut all: Box<Motion<8192>> = Box::new(Motion::new(cfg).unwrap());
+fn peaks(ticks: &[T], cfg: &MotionConfig, accel: f64) -> Peaks {
+    let ts = ts(cfg);
+    let amax = cfg.axis_accel_max_mm_s2.map(|a| a as f64);
+    let vmax = cfg.axis_speed_max.map(|v| v.to_f64() / 60.0);
+    let j = cfg.jerk_max_mm_s3 as f64;
+    let mut p = Peaks::default();
+    for w in ticks.windows(3) {
+        for k in 0..3 {
+            let v = (w[1].pos[k] - w[0].pos[k]) / ts;
+            let a = (w[2].pos[k] - 2.0 * w[1].pos[k] + w[0].pos[k]) / (ts * ts);
+            p.axis_vel = p.axis_vel.max(v.abs() / vmax[k]);
+            p.axis_acc = p.axis_acc.max(a.abs() / amax[k]);
+        }
+    }
+    for w in ticks.windows(2) {
+        p.tang_acc = p.tang_acc.max((w[1].v - w[0].v).abs() / ts / accel);
+        p.tang_jerk = p.tang_jerk.max((w[1].a - w[0].a).abs() / ts / j);
+    }
+    for w in ticks.windows(4) {
+        let d3 = w[3].s - 3.0 * w[2].s + 3.0 * w[1].s - w[0].s;
+        p.s_jerk = p.s_jerk.max(d3.abs() / (ts * ts * ts) / j);
+    }
+    p
+}
+
+/// Quantisation allowances: the planner rounds its per-tick limits down,
+/// but positions are quantised to 2^-32 mm, so a k-th difference is exact to
+/// within 2^k quanta. The arc length's third difference also gets the
+/// quantisation of the acceleration where a stop's final ramp begins part
+/// way through a tick: one quantum of `a` there is |a|/J quanta of speed
+/// (at most A/J, both per tick), which the stop sheds in its last tick
+/// (planner module docs, "Resolution").
+fn tolerances(cfg: &MotionConfig) -> (f64, f64) {
+    let ts = ts(cfg);
+    let q = 2f64.powi(-32);
+    let acc = 4.0 * q / (ts * ts) / cfg.axis_accel_max_mm_s2.iter().min().copied().unwrap() as f64;
+    let a_over_j = cfg.axis_accel_max_mm_s2.iter().max().copied().unwrap() as f64
+        / cfg.jerk_max_mm_s3 as f64
+        / ts;
+    let jerk = (8.0 + a_over_j + 1.0) * q / (ts * ts * ts) / cfg.jerk_max_mm_s3 as f64;
+    (acc + 1e-9, jerk + 1e-6)
+}
+
+fn assert_physical(name: &str, p: &Peaks, cfg: &MotionConfig) {
+    let (acc_tol, jerk_tol) = tolerances(cfg);
+    assert!(
+        p.axis_vel <= 1.0 + 1e-9,
+        "{name}: axis velocity {}",
+        p.axis_vel
+    );
+    assert!(
+        p.axis_acc <= 1.0 + acc_tol,
+        "{name}: axis acceleration {}",
+        p.axis_acc
+    );
+    assert!(
+        p.tang_acc <= 1.0 + 1e-6,
+        "{name}: tangential acceleration {}",
+        p.tang_acc
+    );
+    assert!(
+        p.tang_jerk <= 1.0 + 1e-6,
+        "{name}: tangential jerk {}",
+        p.tang_jerk
+    );
+    assert!(
+        p.s_jerk <= 1.0 + jerk_tol,
+        "{name}: jerk from the arc length {}",
+        p.s_jerk
+    );
+}
+
+/// Every commanded position lies on the polyline (within `tol` mm), and
+/// they advance along it.
+fn assert_on_path(name: &str, ticks: &[T], poly: &[[f64; 3]], tol: f64) {
+    let mut seg = 0;
+    for (n, t) in ticks.iter().enumerate() {
+        let dist = |i: usize| {
+            let (a, b) = (poly[i], poly[(i + 1).min(poly.len() - 1)]);
+            let ab = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+            let ap = [t.pos[0] - a[0], t.pos[1] - a[1], t.pos[2] - a[2]];
+            let l2: f64 = ab.iter().map(|x| x * x).sum();
+            let u = if l2 > 0.0 {
+                (ap.iter().zip(&ab).map(|(x, y)| x * y).sum::<f64>() / l2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            (0..3)
+                .map(|q| (ap[q] - u * ab[q]).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        };
+        let mut best = dist(seg);
+        let mut k = seg;
+        while best > tol && k + 1 < poly.len() {
+            k += 1;
+            let d = dist(k);
+            if d <= tol {
+                seg = k;
+                best = d;
+            }
+        }
+        assert!(
+            best <= tol,
+            "{name}: tick {n} at {:?} is {best} mm off the path",
+            t.pos
+        );
+    }
+    for w in ticks.windows(2) {
+        assert!(w[1].s >= w[0].s, "{name}: the tool moved backwards");
+    }
+}
+
+/// The planned ceilings and caps of the whole path (a buffer holding it all).
+fn whole_plan(points: &[MotionPoint], cfg: MotionConfig) -> (Vec<PlannedPoint>, f64) {
+    let mut all: Box<Motion<16384>> = Box::new(Motion::new(cfg).unwrap());
     for p in points {
         all.push(*p).unwrap();
     }
     all.end_path();
-    let planned: Vec<_> = all.planned().collect();
+    (all.planned().collect(), all.accel_limit_mm_s2().to_num())
+}
+
+struct Figures {
+    time_s: f64,
+    ref_s: f64,
+    peaks: Peaks,
+    over_ceiling_mm_min: f64,
+    chord_um: f64,
+}
+
+fn run(points: &[MotionPoint], cfg: MotionConfig) -> Figures {
+    let (planned, accel) = whole_plan(points, cfg);
     let to_s = |f: FeedMmPerMin| f.to_f64() / 60.0;
     let nodes: Vec<(f64, f64, f64)> = planned
         .iter()
         .map(|p| (p.s_mm.to_num(), to_s(p.ceiling), to_s(p.cap)))
         .collect();
-    let accel: f64 = all.accel_limit_mm_s2().to_num();
     let ref_s = reference::time_optimal_s(&nodes, accel, 0.002);
-    // Streaming execution with a 256-point buffer.
-    let mut m: Motion<256> = Motion::new(cfg).unwrap();
-    let mut ticks: Vec<([f64; 3], f64, f64, f64)> = Vec::new();
-    let record = |m: &mut Motion<256>, ticks: &mut Vec<_>| {
-        let t = m.tick();
-        ticks.push((
-            t.pos.to_f64(),
-            t.s_mm.to_num::<f64>(),
-            m.speed_mm_per_min(t.speed).to_f64() / 60.0,
-            t.accel as f64 / 4294967296.0 / (TS * TS),
-        ));
-        t.state
-    };
-    for p in points {
-        while m.push(*p) == Err(fuzzy_core::planner::MotionError::Full) {
-            record(&mut m, &mut ticks);
-        }
-    }
-    m.end_path();
-    let mut guard = 0;
-    while record(&mut m, &mut ticks) != MotionState::Done {
-        guard += 1;
-        assert!(guard < 50_000_000, "never finished");
-    }
-    // Figures from the commanded positions.
-    let amax = cfg.axis_accel_max_mm_s2.map(|a| a as f64);
-    let vmax = cfg.axis_speed_max.map(|v| v.to_f64() / 60.0);
-    let (mut axis_vel, mut axis_acc): (f64, f64) = (0.0, 0.0);
-    for w in ticks.windows(3) {
-        for k in 0..3 {
-            let v = (w[1].0[k] - w[0].0[k]) / TS;
-            let a = (w[2].0[k] - 2.0 * w[1].0[k] + w[0].0[k]) / (TS * TS);
-            axis_vel = axis_vel.max(v.abs() / vmax[k]);
-            axis_acc = axis_acc.max(a.abs() / amax[k]);
-        }
-    }
-    let (mut tang_acc, mut tang_jerk): (f64, f64) = (0.0, 0.0);
-    for w in ticks.windows(2) {
-        tang_acc = tang_acc.max((w[1].2 - w[0].2).abs() / TS / accel);
-        tang_jerk = tang_jerk.max((w[1].3 - w[0].3).abs() / TS / cfg.jerk_max_mm_s3 as f64);
-    }
-    // The same from the commanded arc length alone (third difference).
-    let mut s_jerk: f64 = 0.0;
-    for w in ticks.windows(4) {
-        let d3 = w[3].1 - 3.0 * w[2].1 + 3.0 * w[1].1 - w[0].1;
-        s_jerk = s_jerk.max(d3.abs() / (TS * TS * TS) / cfg.jerk_max_mm_s3 as f64);
-    }
+    let ticks = drive(points, cfg, |_, _| {});
     // Speed passing each point (interpolated between ticks) vs its ceiling.
     let mut over: f64 = f64::MIN;
     let mut k = 0;
     for p in planned.iter().skip(1).take(planned.len().saturating_sub(2)) {
         let s: f64 = p.s_mm.to_num();
-        while k + 1 < ticks.len() && ticks[k + 1].1 < s {
+        while k + 1 < ticks.len() && ticks[k + 1].s < s {
             k += 1;
         }
         if k + 1 < ticks.len() {
-            let (s0, s1) = (ticks[k].1, ticks[k + 1].1);
+            let (s0, s1) = (ticks[k].s, ticks[k + 1].s);
             let f = if s1 > s0 {
                 ((s - s0) / (s1 - s0)).clamp(0.0, 1.0)
             } else {
                 0.0
             };
-            let v = ticks[k].2 + f * (ticks[k + 1].2 - ticks[k].2);
+            let v = ticks[k].v + f * (ticks[k + 1].v - ticks[k].v);
             over = over.max((v - to_s(p.ceiling)) * 60.0);
         }
     }
@@ -160,12 +318,12 @@ fn run(points: &[MotionPoint], cfg: MotionConfig) -> Figures {
     let mut chord: f64 = 0.0;
     let mut j = 0;
     for w in ticks.windows(2) {
-        let (a, b) = (w[0].0, w[1].0);
-        while j < planned.len() && planned[j].s_mm.to_num::<f64>() <= w[0].1 {
+        let (a, b) = (w[0].pos, w[1].pos);
+        while j < planned.len() && planned[j].s_mm.to_num::<f64>() <= w[0].s {
             j += 1;
         }
         let mut i = j;
-        while i < planned.len() && planned[i].s_mm.to_num::<f64>() < w[1].1 {
+        while i < planned.len() && planned[i].s_mm.to_num::<f64>() < w[1].s {
             let p = planned[i].pos.to_f64();
             let ab = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
             let ap = [p[0] - a[0], p[1] - a[1], p[2] - a[2]];
@@ -183,32 +341,27 @@ fn run(points: &[MotionPoint], cfg: MotionConfig) -> Figures {
             i += 1;
         }
     }
-    let moving: Vec<f64> = ticks.iter().map(|t| t.2).collect();
     Figures {
-        time_s: ticks.len() as f64 * TS,
+        time_s: ticks.len() as f64 * ts(&cfg),
         ref_s,
-        axis_vel,
-        axis_acc,
-        tang_acc,
-        tang_jerk,
-        s_jerk,
+        peaks: peaks(&ticks, &cfg, accel),
         over_ceiling_mm_min: over,
         chord_um: chord * 1000.0,
-        min_tick_speed_mm_min: moving.iter().copied().fold(f64::MAX, f64::min) * 60.0,
     }
 }
 
 fn report(name: &str, f: &Figures) {
+    let p = &f.peaks;
     eprintln!(
-        "planner {name:32}: time {:7.3} s, time-optimal (accel-limited) {:7.3} s, ratio {:.3} | per-axis v/V {:.3} a/A {:.3} | tangential a/A {:.3} jerk/J {:.3} (Δ³s {:.3}) | max(v − ceiling) {:+.2} mm/min | chord {:.3} µm",
+        "planner {name:36}: time {:7.3} s, time-optimal (accel-limited) {:7.3} s, ratio {:.3} | per-axis v/V {:.3} a/A {:.3} | tangential a/A {:.3} jerk/J {:.3} (Δ³s {:.3}) | max(v − ceiling) {:+.2} mm/min | chord {:.3} µm",
         f.time_s,
         f.ref_s,
         f.time_s / f.ref_s,
-        f.axis_vel,
-        f.axis_acc,
-        f.tang_acc,
-        f.tang_jerk,
-        f.s_jerk,
+        p.axis_vel,
+        p.axis_acc,
+        p.tang_acc,
+        p.tang_jerk,
+        p.s_jerk,
         f.over_ceiling_mm_min,
         f.chord_um
     );
@@ -216,34 +369,7 @@ fn report(name: &str, f: &Figures) {
 
 fn assert_within_limits(name: &str, f: &Figures, cfg: &MotionConfig) {
     report(name, f);
-    assert!(
-        f.axis_vel <= 1.0 + 1e-9,
-        "{name}: axis velocity {}",
-        f.axis_vel
-    );
-    assert!(
-        f.axis_acc <= 1.0 + 1e-9,
-        "{name}: axis acceleration {}",
-        f.axis_acc
-    );
-    assert!(
-        f.tang_acc <= 1.0 + 1e-6,
-        "{name}: tangential acceleration {}",
-        f.tang_acc
-    );
-    assert!(
-        f.tang_jerk <= 1.0 + 1e-6,
-        "{name}: tangential jerk {}",
-        f.tang_jerk
-    );
-    // The third difference of positions quantised to 2^-32 mm is exact to
-    // within 8 quanta.
-    let quanta = 8.0 * 2f64.powi(-32) / (cfg.jerk_max_mm_s3 as f64 * TS * TS * TS);
-    assert!(
-        f.s_jerk <= 1.0 + quanta,
-        "{name}: jerk from the commanded arc length {}",
-        f.s_jerk
-    );
+    assert_physical(name, &f.peaks, cfg);
     assert!(
         f.over_ceiling_mm_min <= 0.5,
         "{name}: speed over a ceiling by {} mm/min",
@@ -271,6 +397,24 @@ fn paper_shapes_within_limits_and_near_time_optimal() {
 }
 
 #[test]
+fn real_gcode_within_limits() {
+    // Toolpaths of the shared G-code programs as host-sim reads them
+    // (tests/data/gcode/README.md), at their programmed feeds (rapids
+    // capped by the planner's maximum feed) and with the fuzzy schedule.
+    let cfg = MotionConfig::default();
+    for file in ["freecad_profile", "linuxcnc_butterfly_g52"] {
+        let pts = csv(&format!("gcode/{file}.csv"));
+        let f = run(&programmed(&pts, 5000.0), cfg);
+        assert_within_limits(&format!("{file}, programmed F"), &f, &cfg);
+        assert!(f.time_s / f.ref_s <= 1.15, "{file}: {}", f.time_s / f.ref_s);
+        let xyz: Vec<[f64; 3]> = pts.iter().map(|p| p.0).collect();
+        let f = run(&scheduled(&xyz, 5000), cfg);
+        assert_within_limits(&format!("{file}, fuzzy"), &f, &cfg);
+        assert!(f.time_s / f.ref_s <= 1.15, "{file}: {}", f.time_s / f.ref_s);
+    }
+}
+
+#[test]
 fn sharp_corners_and_short_segments() {
     let cfg = MotionConfig::default();
     // A square spiral: 90° corners between long segments.
@@ -287,7 +431,9 @@ fn sharp_corners_and_short_segments() {
     }
     let f = run(&constant(&pts, 5000), cfg);
     assert_within_limits("square spiral, 90° corners", &f, &cfg);
-    // 0.02-0.2 mm segments wandering in 3-D.
+    // 0.02-0.2 mm segments wandering in 3-D: jerk-limited transitions
+    // dominate at the low corner speeds, so the acceleration-only reference
+    // is far off here; reported, not asserted.
     let mut pts = vec![[0.0, 0.0, 0.0]];
     let (mut h, mut z) = (0.0f64, 0.0f64);
     for i in 0..3000 {
@@ -304,14 +450,16 @@ fn sharp_corners_and_short_segments() {
 #[test]
 fn short_straight_segments_hold_the_programmed_feed() {
     // Grbl on an 8-bit MCU takes 26 % longer on 0.2 mm than on 0.3 mm
-    // segments at 5000 mm/min; here 0.05 mm segments run at full feed.
+    // segments at 5000 mm/min; here 0.05 mm segments run at full feed with
+    // a 256-point buffer (the firmware's buffer size is checked in its own
+    // tests).
     let cfg = MotionConfig::default();
     for seg in [0.3, 0.2, 0.1, 0.05] {
         let n = (100.0 / seg) as usize;
         let pts: Vec<[f64; 3]> = (0..=n).map(|i| [i as f64 * seg, 0.0, 0.0]).collect();
         let f = run(&constant(&pts, 5000), cfg);
         assert_within_limits(&format!("straight line, {seg} mm segments"), &f, &cfg);
-        // Cruise: accelerate at 1000 mm/s² (jerk-limited), cruise, brake.
+        // Accelerate at 1000 mm/s² (jerk-limited), cruise, brake.
         let v = 5000.0 / 60.0;
         let cruise = 100.0 / v + v / 1000.0 + 1000.0 / cfg.jerk_max_mm_s3 as f64;
         assert!(
@@ -319,6 +467,300 @@ fn short_straight_segments_hold_the_programmed_feed() {
             "{seg} mm: {} s vs {cruise} s",
             f.time_s
         );
-        let _ = f.min_tick_speed_mm_min;
+    }
+}
+
+#[test]
+fn feed_hold_stops_on_the_path_and_resumes() {
+    let cfg = MotionConfig::default();
+    let xyz = shape("trident");
+    let points = scheduled(&xyz, 5000);
+    let (_, accel) = whole_plan(&points, cfg);
+    let mut held_at = None;
+    let ticks = drive(&points, cfg, |n, m| match n {
+        700 => m.set_hold(true),
+        1400 => m.set_hold(false),
+        _ => {}
+    });
+    for (n, t) in ticks.iter().enumerate().take(1400).skip(700) {
+        if t.state == MotionState::Holding && t.v == 0.0 && held_at.is_none() {
+            held_at = Some(n);
+        }
+    }
+    let held_at = held_at.expect("came to rest while held");
+    // At rest until the resume, then on to the end.
+    assert!(ticks[held_at..1400]
+        .iter()
+        .all(|t| t.v == 0.0 && t.s == ticks[held_at].s));
+    assert_eq!(ticks.last().unwrap().state, MotionState::Done);
+    let p = peaks(&ticks, &cfg, accel);
+    eprintln!(
+        "feed hold: at rest {} ticks after the hold, {p:?}",
+        held_at - 700
+    );
+    assert_physical("feed hold", &p, &cfg);
+    assert_on_path("feed hold", &ticks, &xyz, 1e-6);
+}
+
+#[test]
+fn underrun_ends_in_a_controlled_stop_and_resumes_without_a_jump() {
+    // Points arrive slower than the tool moves: one 0.5 mm segment every
+    // 12 ticks at 5000 mm/min (83 mm/s wants one every 6 ticks).
+    let cfg = MotionConfig::default();
+    let xyz: Vec<[f64; 3]> = (0..=200).map(|i| [i as f64 * 0.5, 0.0, 0.0]).collect();
+    let points = constant(&xyz, 5000);
+    let ts = ts(&cfg);
+    let mut m: Motion<64> = Motion::new(cfg).unwrap();
+    let mut ticks = Vec::new();
+    for (i, p) in points.iter().enumerate() {
+        m.push(*p).unwrap();
+        let gap = if (60..80).contains(&i) { 200 } else { 12 };
+        for _ in 0..gap {
+            record(&mut m, ts, &mut ticks);
+        }
+    }
+    m.end_path();
+    while record(&mut m, ts, &mut ticks) != MotionState::Done {}
+    let starved = ticks
+        .iter()
+        .filter(|t| t.state == MotionState::Starved)
+        .count();
+    assert!(starved > 0, "the gap starves the buffer");
+    let accel: f64 = m.accel_limit_mm_s2().to_num();
+    let p = peaks(&ticks, &cfg, accel);
+    eprintln!("underrun: {starved} ticks starved, {p:?}");
+    assert_physical("underrun", &p, &cfg);
+    assert_on_path("underrun", &ticks, &xyz, 1e-6);
+    assert_eq!(ticks.last().unwrap().point, 200);
+}
+
+#[test]
+fn override_changes_are_ramped_within_the_physical_limits() {
+    let cfg = MotionConfig::default();
+    let xyz = shape("butterfly");
+    let points = scheduled(&xyz, 5000);
+    let (_, accel) = whole_plan(&points, cfg);
+    let plain = drive(&points, cfg, |_, _| {}).len();
+    let ticks = drive(&points, cfg, |n, m| match n {
+        1000 => m.set_override(40),
+        3000 => m.set_override(150),
+        6000 => m.set_override(200),
+        _ => {}
+    });
+    let p = peaks(&ticks, &cfg, accel);
+    eprintln!(
+        "override 100/40/150/200 %: {} ticks (100 %: {plain}), {p:?}",
+        ticks.len()
+    );
+    assert_physical("override", &p, &cfg);
+    assert_on_path("override", &ticks, &xyz, 1e-6);
+    // Once the ramp to 40 % is over, the tool runs at no more than 40 % of
+    // the maximum feed until the override is raised again.
+    let slow = ticks[1500..3000].iter().map(|t| t.v).fold(0.0, f64::max) * 60.0;
+    assert!(
+        slow <= 0.4 * cfg.feed_max.to_f64() + 0.5,
+        "{slow} mm/min at 40 %"
+    );
+    // Never above 200 % of the fastest scheduled feed, nor the maximum feed.
+    let vmax = ticks.iter().map(|t| t.v).fold(0.0, f64::max) * 60.0;
+    assert!(vmax <= cfg.feed_max.to_f64() + 0.5, "{vmax} mm/min");
+}
+
+#[test]
+fn restart_continues_from_where_the_tool_is() {
+    let cfg = MotionConfig::default();
+    let ts = ts(&cfg);
+    let mut m: Motion<32> = Motion::new(cfg).unwrap();
+    let mut ticks = Vec::new();
+    let first = constant(&[[0.0, 0.0, 0.0], [10.0, 0.0, 0.0]], 3000);
+    for p in &first {
+        m.push(*p).unwrap();
+    }
+    m.end_path();
+    // Not while moving.
+    record(&mut m, ts, &mut ticks);
+    record(&mut m, ts, &mut ticks);
+    assert_eq!(m.restart(), Err(MotionError::Moving));
+    assert_eq!(m.push(first[0]), Err(MotionError::PathEnded));
+    while record(&mut m, ts, &mut ticks) != MotionState::Done {}
+    let split = ticks.len();
+    m.restart().unwrap();
+    // The second path's points start elsewhere: the tool goes there along
+    // a straight move from (10, 0, 0), never jumping.
+    let second = constant(&[[10.0, 5.0, 0.0], [0.0, 5.0, 0.0]], 3000);
+    for p in &second {
+        m.push(*p).unwrap();
+    }
+    m.end_path();
+    while record(&mut m, ts, &mut ticks) != MotionState::Done {}
+    let last = ticks.last().unwrap();
+    assert_eq!(last.pos, [0.0, 5.0, 0.0]);
+    assert_eq!(last.point, 2); // the anchor is point 0 of the second path
+                               // Arc length restarts at 0 with the new path: check each path alone.
+    let accel = m.accel_limit_mm_s2().to_num();
+    assert_physical("restart 1", &peaks(&ticks[..split], &cfg, accel), &cfg);
+    assert_physical("restart 2", &peaks(&ticks[split..], &cfg, accel), &cfg);
+    assert_on_path(
+        "restart 1",
+        &ticks[..split],
+        &[[0.0, 0.0, 0.0], [10.0, 0.0, 0.0]],
+        1e-6,
+    );
+    let poly = [[10.0, 0.0, 0.0], [10.0, 5.0, 0.0], [0.0, 5.0, 0.0]];
+    assert_on_path("restart 2", &ticks[split..], &poly, 1e-6);
+}
+
+#[test]
+fn bad_input_is_refused_and_nothing_accepted_is_lost() {
+    let cfg = MotionConfig::default();
+    let mut m: Motion<9> = Motion::new(cfg).unwrap();
+    let ok = |x: f64| MotionPoint {
+        pos: Point3Mm::from_f64(x, 0.0, 0.0).unwrap(),
+        feed: FeedMmPerMin::from_int(1000),
+        curvature: CurvaturePerMm::ZERO,
+    };
+    m.push(ok(0.0)).unwrap();
+    m.push(ok(1.0)).unwrap();
+    let far = Point3Mm::from_bits(i64::MAX, 0, 0);
+    assert_eq!(
+        m.push(MotionPoint {
+            pos: far,
+            ..ok(0.0)
+        }),
+        Err(MotionError::BadPoint)
+    );
+    let neg = FeedMmPerMin(fixed::types::I32F32::from_num(-1));
+    assert_eq!(
+        m.push(MotionPoint {
+            feed: neg,
+            ..ok(2.0)
+        }),
+        Err(MotionError::BadPoint)
+    );
+    let bent = CurvaturePerMm(fixed::types::I32F32::from_num(-1));
+    assert_eq!(
+        m.push(MotionPoint {
+            curvature: bent,
+            ..ok(2.0)
+        }),
+        Err(MotionError::BadPoint)
+    );
+    // Duplicates are kept as points (their indices count).
+    m.push(ok(1.0)).unwrap();
+    m.push(ok(2.0)).unwrap();
+    for x in 3..8 {
+        m.push(ok(x as f64)).unwrap();
+    }
+    assert_eq!(m.push(ok(9.0)), Err(MotionError::Full));
+    m.end_path();
+    let mut last = None;
+    for _ in 0..100_000 {
+        let t = m.tick();
+        last = Some(t);
+        if t.state == MotionState::Done {
+            break;
+        }
+    }
+    let t = last.unwrap();
+    assert_eq!(t.state, MotionState::Done);
+    assert_eq!(t.pos, Point3Mm::from_f64(7.0, 0.0, 0.0).unwrap());
+    assert_eq!(t.point, 8);
+    // Configurations out of range are refused with a reason.
+    let c = MotionConfig::default();
+    assert_eq!(
+        Motion::<8>::new(MotionConfig {
+            jerk_max_mm_s3: 1,
+            ..c
+        })
+        .err(),
+        Some(ConfigError::Resolution)
+    );
+    assert_eq!(
+        Motion::<8>::new(MotionConfig {
+            tangential_share: Fx::ZERO,
+            ..c
+        })
+        .err(),
+        Some(ConfigError::Share)
+    );
+}
+
+/// A random polyline: lengths 1 µm to 5 mm, turns up to ±180°, some
+/// duplicates, in 3-D.
+fn polyline() -> impl Strategy<Value = Vec<[f64; 3]>> {
+    prop::collection::vec((0.001f64..5.0, -3.2f64..3.2, -0.5f64..0.5, 0u8..20), 2..60).prop_map(
+        |steps| {
+            let mut pts = vec![[0.0, 0.0, 0.0]];
+            let mut h = 0.0f64;
+            for (len, turn, dz, dup) in steps {
+                let p = *pts.last().unwrap();
+                if dup == 0 {
+                    pts.push(p);
+                    continue;
+                }
+                h += turn;
+                pts.push([p[0] + len * h.cos(), p[1] + len * h.sin(), p[2] + dz * len]);
+            }
+            pts
+        },
+    )
+}
+
+fn config() -> impl Strategy<Value = MotionConfig> {
+    (
+        prop::sample::select(vec![250u32, 500, 1000, 2000]),
+        500i32..20_000,
+        100u32..5000,
+        5_000u32..200_000,
+        1u32..100,
+        10i32..90,
+    )
+        .prop_map(|(tick_us, feed, acc, jerk, chord_um, share)| MotionConfig {
+            tick_us,
+            feed_max: FeedMmPerMin::from_int(feed),
+            axis_speed_max: [FeedMmPerMin::from_int(feed.max(1000) * 2); 3],
+            axis_accel_max_mm_s2: [acc, acc * 2, acc],
+            jerk_max_mm_s3: jerk,
+            chord_tolerance_mm: fixed::types::I32F32::from_num(chord_um as f64 * 1e-3),
+            tangential_share: Fx::from_num(share as f64 / 100.0),
+        })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    /// Any path, any valid limits, holds toggled at random: the motion ends
+    /// at the last point, stays on the path, and never exceeds a limit.
+    #[test]
+    fn any_path_within_limits(
+        pts in polyline(),
+        cfg in config(),
+        feed in 100i32..30_000,
+        holds in prop::collection::vec(0usize..20_000, 0..4),
+    ) {
+        let Ok(probe) = Motion::<8>::new(cfg) else {
+            return Ok(()); // a refused configuration (resolution) is fine
+        };
+        let accel: f64 = probe.accel_limit_mm_s2().to_num();
+        let points = constant(&pts, feed);
+        let ticks = drive(&points, cfg, |n, m| {
+            for (k, &h) in holds.iter().enumerate() {
+                if n == h {
+                    m.set_hold(k % 2 == 0);
+                }
+            }
+            if n == 40_000 {
+                m.set_hold(false);
+            }
+        });
+        let p = peaks(&ticks, &cfg, accel);
+        assert_physical("random", &p, &cfg);
+        assert_on_path("random", &ticks, &pts, 1e-6);
+        let end = pts.last().unwrap();
+        let last = ticks.last().unwrap().pos;
+        for k in 0..3 {
+            prop_assert!((last[k] - end[k]).abs() < 1e-9);
+        }
+        prop_assert_eq!(ticks.last().unwrap().point as usize, pts.len() - 1);
     }
 }

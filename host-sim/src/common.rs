@@ -35,7 +35,7 @@ pub struct MachineArgs {
     /// fanuc-conventional).
     #[arg(long, value_enum)]
     pub machine: Option<MachineChoice>,
-    /// Interpolation period Ts, ms.
+    /// Interpolation period Ts, ms (also the planner's tick).
     #[arg(long)]
     pub interpolation_period_ms: Option<f64>,
     /// Fuzzy scheduler: lookahead window WS, points (10, 20, 30, 40, 60, 90).
@@ -81,6 +81,7 @@ impl MachineArgs {
         }
         if let Some(t) = self.interpolation_period_ms {
             c.interpolation_period_ms = t;
+            c.planner.tick_us = (t * 1000.0).round().clamp(0.0, u32::MAX as f64) as u32;
         }
         let f = &mut c.methods.fuzzy;
         if let Some(w) = self.lookahead {

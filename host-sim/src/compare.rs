@@ -9,6 +9,9 @@
 //!   equals the fuzzy scheduler's, and how much shorter the fuzzy
 //!   scheduler's cycle time is (paper: 49 %).
 //!
+//! The same two figures are measured for `fuzzy-planner` (the fuzzy feeds
+//! through fuzzy-core's velocity planner) against the same constant feed.
+//!
 //! Both constant feeds are found by bisection on the simulated machine
 //! (cycle time falls and the maximum contour error rises with the feed);
 //! the search stops when the feed is known to 0.1 %.
@@ -51,6 +54,9 @@ pub struct Matched {
 pub struct Claim {
     /// Toolpath name.
     pub path: String,
+    /// The scheduling method compared with the constant feed (`fuzzy` or
+    /// `fuzzy-planner`; the `fuzzy_*` fields are its figures).
+    pub method: &'static str,
     /// The fuzzy scheduler's maximum feed, mm/min.
     pub f_max_mm_per_min: f64,
     /// Fuzzy scheduler's cycle time, s.
@@ -132,8 +138,8 @@ fn match_constant(
     })
 }
 
-/// Measure both claims for the fuzzy run `fuzzy` (method `fuzzy`) on
-/// `prepared`.
+/// Measure both claims for the fuzzy run `fuzzy` (method `fuzzy` or
+/// `fuzzy-planner`) on `prepared`.
 pub fn claim(prepared: &Prepared, fuzzy: &RunResult, config: &SimConfig) -> Result<Claim> {
     let (tf, ef) = (
         fuzzy.metrics.cycle_time_s,
@@ -144,6 +150,7 @@ pub fn claim(prepared: &Prepared, fuzzy: &RunResult, config: &SimConfig) -> Resu
     let equal_error = match_constant(prepared, config, 1, ef, hint)?;
     Ok(Claim {
         path: prepared.path.name.clone(),
+        method: fuzzy.method.name(),
         f_max_mm_per_min: fuzzy.f_max_mm_per_min,
         fuzzy_cycle_time_s: tf,
         fuzzy_contour_error_max_mm: ef,
@@ -164,7 +171,8 @@ pub struct Report {
     pub config: SimConfig,
     /// Table rows, path by path, feed by feed, method by method.
     pub rows: Vec<Row>,
-    /// Claims, path by path and feed by feed (when the fuzzy method ran).
+    /// Claims, path by path and feed by feed (when `fuzzy` or
+    /// `fuzzy-planner` ran).
     pub claims: Vec<Claim>,
 }
 
@@ -192,7 +200,7 @@ pub fn batch(
                     f_max_mm_per_min: f,
                     metrics: r.metrics.clone(),
                 });
-                if with_claims && m == Method::Fuzzy {
+                if with_claims && has_claims(m) {
                     tick(&format!("{} claims {f}", p.path.name));
                     claims.push(claim(p, &r, config)?);
                 }
@@ -210,8 +218,14 @@ pub fn batch(
 
 /// Number of `tick` calls [`batch`] makes.
 pub fn batch_steps(paths: usize, methods_: &[Method], feeds: usize, with_claims: bool) -> u64 {
-    let per = methods_.len() + usize::from(with_claims && methods_.contains(&Method::Fuzzy));
+    let claimed = methods_.iter().filter(|m| has_claims(**m)).count();
+    let per = methods_.len() + if with_claims { claimed } else { 0 };
     (paths * feeds * per) as u64
+}
+
+/// Whether the claims are measured for method `m`.
+pub fn has_claims(m: Method) -> bool {
+    matches!(m, Method::Fuzzy | Method::FuzzyPlanner)
 }
 
 /// Re-export for callers that schedule without simulating.

@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 use crate::gcode::GcodeSettings;
 use crate::machine::MachineConfig;
 use crate::methods::MethodSettings;
+use crate::planner::PlannerSettings;
 
 /// A whole configuration file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -24,6 +25,9 @@ pub struct SimConfig {
     pub methods: MethodSettings,
     /// How G-code becomes a toolpath.
     pub gcode: GcodeSettings,
+    /// The velocity planner of the `fuzzy-planner` method and of `plan`
+    /// (fuzzy-core's `MotionConfig`).
+    pub planner: PlannerSettings,
 }
 
 impl Default for SimConfig {
@@ -33,6 +37,7 @@ impl Default for SimConfig {
             machine: MachineConfig::default(),
             methods: MethodSettings::default(),
             gcode: GcodeSettings::default(),
+            planner: PlannerSettings::default(),
         }
     }
 }
@@ -71,6 +76,7 @@ impl SimConfig {
             "interpolation_period_ms must be in [0.01, 100]"
         );
         self.machine.validate(self.ts_s())?;
+        self.planner.validate(self.ts_s())?;
         let f = &self.methods.fuzzy;
         anyhow::ensure!(
             f.f_min_mm_per_min.is_finite() && f.f_min_mm_per_min >= 0.0,

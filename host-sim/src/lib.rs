@@ -9,17 +9,22 @@
 //!          ─► interpolation every Ts ─► machine ─► actual motion ─► metrics, plots
 //! ```
 
+pub mod cho;
 pub mod compare;
 pub mod config;
 pub mod contour_error;
+pub mod corner_comp;
 pub mod gcode;
 pub mod inputs;
 pub mod interpolation;
 pub mod machine;
 pub mod methods;
 pub mod metrics;
+pub mod nagata;
+pub mod njiri;
 pub mod nurbs;
 pub mod path_csv;
+pub mod planner;
 pub mod plots;
 pub mod report;
 pub mod shapes;

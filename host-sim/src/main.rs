@@ -6,9 +6,12 @@
 //! Every scheduling subcommand calls `fuzzy-core`, the same code the
 //! firmware runs.
 
+mod cho_cmd;
 mod common;
 mod compare_cmd;
 mod controller_cmd;
+mod corner_cmd;
+mod plan_cmd;
 mod schedule_cmd;
 mod simulate_cmd;
 
@@ -39,6 +42,20 @@ enum Command {
     /// One toolpath, method, maximum feed and machine: motion and schedule
     /// as CSV, metrics as JSON, plots.
     Simulate(simulate_cmd::Args),
+    /// The velocity planner (fuzzy-core, `[planner]`) on toolpaths: cycle
+    /// time vs the time-optimal reference, peak axis velocity and
+    /// acceleration and tangential acceleration and jerk against their
+    /// limits, chord deviation; writes the speed profile (plot), the ticks
+    /// and the plan (CSV), the figures (JSON, plan.txt).
+    Plan(plan_cmd::Args),
+    /// Cho, Lee & Jeon's contour-error fuzzy feed control on the X-Y servo
+    /// model (Tables 4.1-4.2): circle and corner, cycle time against the
+    /// best constant feed with the same peak contour error (Table 4.3).
+    Cho(cho_cmd::Args),
+    /// Dat & Phuc's corner compensation: extra points and a slower feed
+    /// near sharp corners, chosen with the machine model so the predicted
+    /// path meets the corner; corner error before and after.
+    Corner(corner_cmd::Args),
     /// Schedule the feed along a path given as CSV (x,y,z in mm, optional
     /// feed cap in mm/min) and write one row per point.
     Schedule(schedule_cmd::Args),
@@ -63,6 +80,13 @@ enum Command {
     },
     /// Print the default configuration (every key of the TOML file).
     Config,
+    /// Njiri et al.'s force-feedback feed override in a closed loop with a
+    /// ball-end milling force model: the depth-of-cut step experiment.
+    Njiri(host_sim::njiri::cli::Args),
+    /// Nagata et al.'s fuzzy post-processor: CL data → G-code with F words
+    /// (optionally X A Z for a rotary unit), machining time vs a constant
+    /// feed, read-back check.
+    Nagata(host_sim::nagata::cli::Args),
 }
 
 fn main() -> std::process::ExitCode {
@@ -70,6 +94,9 @@ fn main() -> std::process::ExitCode {
     let result = match cli.command {
         Command::Compare(args) => compare_cmd::run(&args),
         Command::Simulate(args) => simulate_cmd::run(&args),
+        Command::Plan(args) => plan_cmd::run(&args),
+        Command::Cho(args) => cho_cmd::run(&args),
+        Command::Corner(args) => corner_cmd::run(&args),
         Command::Schedule(args) => schedule_cmd::run(&args),
         Command::Controller(cmd) => controller_cmd::run(&cmd),
         Command::Shape { shape } => {
@@ -83,6 +110,8 @@ fn main() -> std::process::ExitCode {
             Ok(())
         }
         Command::Toolpath { input, config } => toolpath(&input, config.as_deref()),
+        Command::Njiri(args) => host_sim::njiri::cli::run(&args),
+        Command::Nagata(args) => host_sim::nagata::cli::run(&args),
         Command::Config => {
             print!("{}", SimConfig::default().to_toml());
             Ok(())

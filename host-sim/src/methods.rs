@@ -8,15 +8,14 @@
 //! | `chord-error` | curvature pre-schedule in the spirit of Yeh & Hsu and Luan et al. (Lin et al. refs. 9-10): `v ≤ (2/Ts)·√(2δ/κ − δ²)`, `v ≤ √(A/κ)`, then acceleration-limited passes |
 //! | `fuzzy` | Lin et al.'s scheduler (fuzzy-core), with the average filter |
 //! | `fuzzy-no-filter` | the same without the average filter (AVG = 1) |
+//! | `fuzzy-planner` | the `fuzzy` feeds as upper bounds of fuzzy-core's velocity planner (issue 6), whose tick stream goes to the machine ([`crate::planner`]) |
 //!
 //! Every curvature here is fuzzy-core's (eq. 4-9, the scheduler's own
 //! output): no second implementation.
 //!
-//! **Hook for "fuzzy + planner"** (issue 6): the acceleration/jerk-limited
-//! planner will live in fuzzy-core. To add it as a method: a variant in
-//! [`Method`], whose arm calls [`fuzzy_schedule`] and hands its feeds to the
-//! planner as upper bounds; the machines, metrics, table and plots need no
-//! change.
+//! `fuzzy-planner`'s schedule here is the `fuzzy` one (the planner's upper
+//! bounds); [`crate::simulate::run`] plans it and hands the machine the
+//! planner's positions instead of interpolating the feeds.
 
 use anyhow::{bail, Result};
 use fuzzy_core::lin2021::{VariationScale, CONTROLLER};
@@ -38,15 +37,20 @@ pub enum Method {
     Fuzzy,
     /// Lin et al.'s fuzzy scheduler without the average filter.
     FuzzyNoFilter,
+    /// The fuzzy scheduler's feeds as upper bounds of fuzzy-core's
+    /// acceleration- and jerk-limited velocity planner (`[planner]` in the
+    /// configuration), whose positions go to the machine.
+    FuzzyPlanner,
 }
 
 impl Method {
     /// Every method, in the table's order.
-    pub const ALL: [Method; 4] = [
+    pub const ALL: [Method; 5] = [
         Method::Constant,
         Method::ChordError,
         Method::Fuzzy,
         Method::FuzzyNoFilter,
+        Method::FuzzyPlanner,
     ];
 
     /// Name as on the command line.
@@ -56,6 +60,7 @@ impl Method {
             Method::ChordError => "chord-error",
             Method::Fuzzy => "fuzzy",
             Method::FuzzyNoFilter => "fuzzy-no-filter",
+            Method::FuzzyPlanner => "fuzzy-planner",
         }
     }
 }
@@ -306,7 +311,9 @@ pub fn schedule(
         bail!("maximum feed {f_max_mm_per_min} mm/min outside (0, 1e6]");
     }
     match method {
-        Method::Fuzzy => fuzzy_schedule(path, f_max_mm_per_min, &settings.fuzzy, true),
+        Method::Fuzzy | Method::FuzzyPlanner => {
+            fuzzy_schedule(path, f_max_mm_per_min, &settings.fuzzy, true)
+        }
         Method::FuzzyNoFilter => fuzzy_schedule(path, f_max_mm_per_min, &settings.fuzzy, false),
         Method::Constant | Method::ChordError => {
             // The curvature comes from fuzzy-core's scheduler (any settings).

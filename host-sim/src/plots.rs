@@ -113,6 +113,7 @@ fn colour(m: Method) -> RGBColor {
         Method::ChordError => RGBColor(31, 119, 180),
         Method::Fuzzy => RGBColor(214, 39, 40),
         Method::FuzzyNoFilter => RGBColor(255, 127, 14),
+        Method::FuzzyPlanner => RGBColor(44, 160, 44),
     }
 }
 

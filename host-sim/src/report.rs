@@ -71,15 +71,16 @@ pub fn text(report: &Report) -> String {
     if !report.claims.is_empty() {
         let _ = writeln!(
             s,
-            "\nfuzzy vs constant feed (paper: 43 % lower max error at equal time, 49 % shorter time at equal max error)"
+            "\nfuzzy (and fuzzy-planner) vs constant feed (paper: 43 % lower max error at equal time, 49 % shorter time at equal max error)"
         );
         let _ = writeln!(
             s,
-            "{:<12} {:>8} {:>9} {:>9} | {:>9} {:>9} {:>8} | {:>9} {:>9} {:>8}",
+            "{:<12} {:<14} {:>8} {:>9} {:>9} | {:>9} {:>9} {:>8} | {:>9} {:>9} {:>8}",
             "path",
+            "method",
             "Fmax",
-            "fuzzy s",
-            "fuzzy mm",
+            "time s",
+            "err mm",
             "const F",
             "const mm",
             "err -%",
@@ -90,8 +91,9 @@ pub fn text(report: &Report) -> String {
         for c in &report.claims {
             let _ = writeln!(
                 s,
-                "{:<12} {:>8.0} {:>9.3} {:>9.4} | {:>9.0} {:>9.4} {:>8.1} | {:>9.0} {:>9.3} {:>8.1}",
+                "{:<12} {:<14} {:>8.0} {:>9.3} {:>9.4} | {:>9.0} {:>9.4} {:>8.1} | {:>9.0} {:>9.3} {:>8.1}",
                 c.path,
+                c.method,
                 c.f_max_mm_per_min,
                 c.fuzzy_cycle_time_s,
                 c.fuzzy_contour_error_max_mm,
@@ -161,6 +163,7 @@ pub fn claims_csv(claims: &[Claim]) -> Result<String> {
     let mut w = csv::Writer::from_writer(Vec::new());
     w.write_record([
         "path",
+        "method",
         "f_max_mm_per_min",
         "fuzzy_cycle_time_s",
         "fuzzy_contour_error_max_mm",
@@ -172,7 +175,7 @@ pub fn claims_csv(claims: &[Claim]) -> Result<String> {
         "time_reduction",
     ])?;
     for c in claims {
-        let mut rec = vec![c.path.clone()];
+        let mut rec = vec![c.path.clone(), c.method.to_string()];
         rec.extend(
             [
                 c.f_max_mm_per_min,

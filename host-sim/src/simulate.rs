@@ -8,6 +8,7 @@ use crate::contour_error::PathIndex;
 use crate::machine::Motion;
 use crate::methods::{self, Method, Schedule};
 use crate::metrics::{Kinematics, Metrics};
+use crate::planner;
 use crate::toolpath::Toolpath;
 
 /// A toolpath prepared for repeated runs (its contour-error index built
@@ -48,20 +49,31 @@ pub struct RunResult {
 }
 
 /// Simulate a given schedule on the configured machine and measure it.
+/// With [`Method::FuzzyPlanner`] the feeds are the planner's upper bounds
+/// and the machine follows the planner's positions
+/// ([`crate::planner::machine`]).
 pub fn run_schedule(
     prepared: &Prepared,
     method: Method,
     f_max_mm_per_min: f64,
     schedule: Schedule,
     config: &SimConfig,
-) -> RunResult {
-    let motion = config.machine.simulate(
-        &prepared.path.points,
-        &schedule.feeds_mm_per_min,
-        config.ts_s(),
-    );
+) -> Result<RunResult> {
+    let motion = if method == Method::FuzzyPlanner {
+        let path = &prepared.path;
+        let points =
+            planner::motion_points(path, &schedule.feeds_mm_per_min, &schedule.curvature_per_mm)?;
+        let planned = planner::plan(&points, &path.lines, &config.planner)?;
+        planner::machine::follow(&config.machine, planned.commanded(), config.ts_s())
+    } else {
+        config.machine.simulate(
+            &prepared.path.points,
+            &schedule.feeds_mm_per_min,
+            config.ts_s(),
+        )
+    };
     let (metrics, kinematics, contour_error_mm) = Metrics::measure(&prepared.index, &motion);
-    RunResult {
+    Ok(RunResult {
         method,
         f_max_mm_per_min,
         schedule,
@@ -69,7 +81,7 @@ pub fn run_schedule(
         metrics,
         kinematics,
         contour_error_mm,
-    }
+    })
 }
 
 /// Schedule with `method` at `f_max`, simulate, measure.
@@ -86,11 +98,5 @@ pub fn run(
         config.ts_s(),
         &config.methods,
     )?;
-    Ok(run_schedule(
-        prepared,
-        method,
-        f_max_mm_per_min,
-        schedule,
-        config,
-    ))
+    run_schedule(prepared, method, f_max_mm_per_min, schedule, config)
 }

@@ -91,7 +91,7 @@ fn compare_writes_table_claims_json_and_plots() {
 
 #[test]
 fn every_option_is_explained() {
-    for sub in ["compare", "simulate", "schedule", "toolpath"] {
+    for sub in ["compare", "simulate", "schedule", "toolpath", "plan"] {
         let o = bin().args([sub, "--help"]).output().unwrap();
         let help = String::from_utf8_lossy(&o.stdout);
         assert!(o.status.success());

@@ -95,7 +95,8 @@ pub const OVERRIDE_MIN_PERCENT: u16 = 10;
 /// Largest feed override, percent.
 pub const OVERRIDE_MAX_PERCENT: u16 = 200;
 
-/// What the interpolator is doing (mirrors the firmware's motion state).
+/// What the motion is doing (the firmware's planner state: `Done` and
+/// `Idle` are both [`Motion::Idle`]).
 #[derive(Serialize, Deserialize, Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Motion {
@@ -111,6 +112,10 @@ pub enum Motion {
 }
 
 /// The controller's state, answer to [`HostMsg::StatusQuery`].
+///
+/// Motion figures (`motion`, `pos_mm`, `feed_mm_per_min`, `point_reached`,
+/// the tick counters) are those of the tick being executed; the planner
+/// runs a few ticks ahead of it.
 #[derive(Serialize, Deserialize, Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Status {
@@ -120,28 +125,56 @@ pub struct Status {
     pub pos_mm: [I32F32Bits; 3],
     /// Current feed (tangential speed), mm/min, I32F32 bits.
     pub feed_mm_per_min: I32F32Bits,
-    /// Feed override, percent.
+    /// Feed override in force, percent.
     pub override_percent: u16,
     /// Next sequence number expected.
     pub next_seq: u32,
     /// Credit: the host may send up to this sequence number, exclusive.
     pub window_end: u32,
-    /// Segments waiting in the interpolator.
-    pub segments_queued: u16,
+    /// Points in the velocity planner's buffer.
+    pub planned_points: u16,
     /// Points held in the scheduler's lookahead.
     pub points_held: u16,
-    /// Segments completed since boot.
-    pub segments_done: u32,
+    /// Index in the current path of the last point reached: 0 is where the
+    /// tool was when the path started, the path's first point is 1, so at
+    /// the end of a path it is the number of points scheduled.
+    pub point_reached: u32,
     /// Controlled stops caused by a path that stopped arriving.
     pub underruns: u32,
     /// Frames refused since boot.
     pub bad_frames: u32,
-    /// Worst interpolator tick, SysTick cycles (QEMU: instructions × 0.168).
+    /// Worst tick interrupt, SysTick cycles (QEMU: instructions × 0.168).
     pub worst_tick_cycles: u32,
     /// Stack high-water mark, bytes (painted stack).
     pub stack_used_bytes: u32,
-    /// Interpolator ticks since boot.
+    /// Ticks since boot.
     pub ticks: u32,
+    /// Ticks the current path has been moving (speed > 0), from its first
+    /// move.
+    pub moving_ticks: u32,
+    /// Ticks at which no setpoint was ready (position held): the planner
+    /// fell behind. Zero in a healthy controller.
+    pub empty_ticks: u32,
+    /// Setpoints the planner generated since boot (it runs up to the
+    /// setpoint ring's depth ahead of `ticks − empty_ticks`, those executed).
+    pub generated_ticks: u32,
+    /// FNV-1a (64-bit, folded to 32: high ⊕ low) over the three I32F32
+    /// coordinates of every generated setpoint since boot, in order.
+    pub positions_checksum: u32,
+}
+
+/// A command the velocity planner took (reported by [`DeviceMsg::Planned`]).
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum PlanEvent {
+    /// The path ended (after its last point).
+    EndPath,
+    /// Feed hold on.
+    Hold,
+    /// Feed hold off.
+    Resume,
+    /// A new feed override, percent.
+    Override(u16),
 }
 
 /// Why a frame or command was refused.
@@ -183,7 +216,7 @@ pub enum DeviceMsg {
         /// Credit limit (exclusive).
         window_end: u32,
     },
-    /// The scheduler released a point with this feed.
+    /// A scheduled point entered the velocity planner.
     Scheduled {
         /// The point's sequence number.
         seq: u32,
@@ -191,6 +224,20 @@ pub enum DeviceMsg {
         index: u32,
         /// Scheduled feed, mm/min, I32F32 bits (bit-exact with `fuzzy-core`).
         feed_mm_per_min: I32F32Bits,
+        /// Planner ticks generated before it went in (see [`PlanEvent`]).
+        tick: u32,
+    },
+    /// The planner took a command after `tick` generated ticks.
+    ///
+    /// With [`DeviceMsg::Scheduled`]'s `tick` this is the complete input
+    /// of the velocity planner, in order: a host that feeds the same inputs
+    /// to its own planner at the same ticks computes the same setpoints
+    /// ([`Status::positions_checksum`] says whether it did).
+    Planned {
+        /// Planner ticks generated before the command took effect.
+        tick: u32,
+        /// What it was.
+        event: PlanEvent,
     },
     /// State report.
     Status(Status),
@@ -203,12 +250,17 @@ pub enum DeviceMsg {
     },
     /// Sent once after reset, with the settings in force.
     Hello {
-        /// Interpolator tick rate, Hz.
+        /// Interpolation tick rate, Hz.
         tick_hz: u32,
-        /// Tangential acceleration limit, mm/s².
+        /// Tangential acceleration limit, mm/s² (rounded up).
         accel_mm_per_s2: u32,
         /// Credit limit (exclusive).
         window_end: u32,
+        /// Largest feed the motion runs (programmed feed × override is
+        /// capped to it), mm/min.
+        feed_max_mm_per_min: u32,
+        /// Points the velocity planner buffers.
+        planner_points: u16,
     },
 }
 
@@ -389,17 +441,38 @@ mod tests {
             feed_mm_per_min: i64::MIN,
             next_seq: u32::MAX,
             window_end: u32::MAX,
-            segments_done: u32::MAX,
+            point_reached: u32::MAX,
             underruns: u32::MAX,
             bad_frames: u32::MAX,
             worst_tick_cycles: u32::MAX,
             stack_used_bytes: u32::MAX,
             ticks: u32::MAX,
-            segments_queued: u16::MAX,
+            moving_ticks: u32::MAX,
+            empty_ticks: u32::MAX,
+            generated_ticks: u32::MAX,
+            positions_checksum: u32::MAX,
+            planned_points: u16::MAX,
             points_held: u16::MAX,
             override_percent: u16::MAX,
             motion: Motion::Starved,
         }));
+        roundtrip(DeviceMsg::Hello {
+            tick_hz: u32::MAX,
+            accel_mm_per_s2: u32::MAX,
+            window_end: u32::MAX,
+            feed_max_mm_per_min: u32::MAX,
+            planner_points: u16::MAX,
+        });
+        roundtrip(DeviceMsg::Scheduled {
+            seq: u32::MAX,
+            index: u32::MAX,
+            feed_mm_per_min: i64::MIN,
+            tick: u32::MAX,
+        });
+        roundtrip(DeviceMsg::Planned {
+            tick: u32::MAX,
+            event: PlanEvent::Override(u16::MAX),
+        });
         roundtrip(DeviceMsg::Error {
             code: ErrorCode::Rejected,
             expected_seq: 3,

@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 
 use fuzzy_core::scheduler::SchedulerConfig;
 use fuzzy_core::units::Point3Mm;
-use link::{DeviceMsg, ErrorCode, FrameReader, HostMsg, Status};
+use link::{DeviceMsg, ErrorCode, FrameReader, HostMsg, PlanEvent, Status};
 
 /// The repository root.
 pub fn repo_root() -> PathBuf {
@@ -90,6 +90,37 @@ pub struct Reported {
     pub index: u32,
     /// Its feed, mm/min, I32F32 bits.
     pub feed_bits: i64,
+    /// Planner ticks generated before it entered the planner.
+    pub tick: u32,
+}
+
+/// An input the firmware's velocity planner took, in the order it took
+/// them (`DeviceMsg::Scheduled` and `DeviceMsg::Planned`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PlanLog {
+    /// The point with this sequence number went in after `tick` ticks.
+    Point {
+        /// Sequence number.
+        seq: u32,
+        /// Ticks generated before.
+        tick: u32,
+    },
+    /// A command took effect after `tick` ticks.
+    Event {
+        /// Ticks generated before.
+        tick: u32,
+        /// What.
+        event: PlanEvent,
+    },
+}
+
+impl PlanLog {
+    /// Ticks generated before it.
+    pub fn tick(&self) -> u32 {
+        match *self {
+            PlanLog::Point { tick, .. } | PlanLog::Event { tick, .. } => tick,
+        }
+    }
 }
 
 /// A running firmware (QEMU) and the host end of its link. QEMU is killed
@@ -114,6 +145,14 @@ pub struct Firmware {
     pub last_status: Option<Status>,
     /// The hello: tick rate, acceleration.
     pub hello: (u32, u32),
+    /// The hello: the machine's maximum feed, mm/min.
+    pub feed_max: u32,
+    /// The hello: points the velocity planner buffers.
+    pub planner_points: u16,
+    /// Every input of the firmware's planner, in order.
+    pub plan_log: Vec<PlanLog>,
+    /// Every status received, in order.
+    pub statuses: Vec<Status>,
     /// Resends after a refusal or a silence.
     pub resends: u32,
     /// Where the firmware's defmt log goes.
@@ -199,6 +238,10 @@ impl Firmware {
             errors: Vec::new(),
             last_status: None,
             hello: (0, 0),
+            feed_max: 0,
+            planner_points: 0,
+            plan_log: Vec::new(),
+            statuses: Vec::new(),
             resends: 0,
             log,
         }
@@ -247,8 +290,12 @@ impl Firmware {
                 tick_hz,
                 accel_mm_per_s2,
                 window_end,
+                feed_max_mm_per_min,
+                planner_points,
             } => {
                 self.hello = (tick_hz, accel_mm_per_s2);
+                self.feed_max = feed_max_mm_per_min;
+                self.planner_points = planner_points;
                 self.window_end = self.window_end.max(window_end);
             }
             DeviceMsg::Ack {
@@ -262,15 +309,24 @@ impl Firmware {
                 seq,
                 index,
                 feed_mm_per_min,
-            } => self.scheduled.push(Reported {
-                seq,
-                index,
-                feed_bits: feed_mm_per_min,
-            }),
+                tick,
+            } => {
+                self.scheduled.push(Reported {
+                    seq,
+                    index,
+                    feed_bits: feed_mm_per_min,
+                    tick,
+                });
+                self.plan_log.push(PlanLog::Point { seq, tick });
+            }
+            DeviceMsg::Planned { tick, event } => {
+                self.plan_log.push(PlanLog::Event { tick, event })
+            }
             DeviceMsg::Status(s) => {
                 self.acked = self.acked.max(s.next_seq);
                 self.window_end = self.window_end.max(s.window_end);
                 self.last_status = Some(s);
+                self.statuses.push(s);
             }
             DeviceMsg::Error { code, expected_seq } => {
                 self.errors.push((code, expected_seq));
@@ -408,7 +464,10 @@ impl Firmware {
             );
             let until = Instant::now() + period;
             while Instant::now() < until {
-                self.pump(Duration::from_millis(2));
+                // Keep streaming as the credit comes back.
+                if self.pump(Duration::from_millis(2)).is_some() {
+                    self.transmit();
+                }
             }
         }
     }

@@ -1,35 +1,46 @@
-//! Cost benchmark: instructions per scheduled point and per interpolator
-//! tick, on the three recorded shapes, run under QEMU with `-icount
-//! shift=0` (one instruction per ns; SysTick at 168 MHz counts 168 per 1000
-//! instructions).
+//! Cost benchmark and on-target planner check: the scheduler and the
+//! velocity planner over the three recorded shapes and a 100 mm line of
+//! 0.05 mm segments, run under QEMU with `-icount shift=0` (one instruction
+//! per ns; SysTick at 168 MHz counts 168 per 1000 instructions).
 //!
-//! It runs the firmware's own code paths ([`motion::Feeder`] and
-//! [`motion::tick`]) without interrupts, so nothing else is counted:
-//! Means are per scheduled point (total over the shape / its points),
-//! worsts per call.
-//! - `sched`: `Scheduler::push` / `drain` alone (the fuzzy-core pipeline:
-//!   curvature, lookahead, controller, filter); the budget figure;
-//! - `point`: the whole feeder step per point (scheduler + segment
-//!   preparation for the interpolator);
-//! - `tick`: one interpolator tick (segment intake, hold/resume/override,
-//!   interpolation, step/dir pulses), the whole shape driven to the end,
-//!   with a feed hold, an override change and a starved stretch on the way.
+//! Every run is [`replay::run`], the fixed feeding policy shared with the
+//! host test `cost_benchmark_plans_the_same_bits_as_the_host` in
+//! `tests/tests/firmware_qemu.rs`, which computes the same checksums of the commanded positions on the host and compares them with
+//! the ones printed here. Nothing else runs (no interrupts), so nothing
+//! else is counted. Figures (instructions):
+//! - `sched`: `Scheduler::push`/`drain` (curvature, lookahead, controller,
+//!   filter); mean per scheduled point, worst call;
+//! - `push`: `Motion::push` per point (mean, worst);
+//! - `gen`: `Motion::tick`, the generation of one setpoint, per tick (mean,
+//!   worst); in the application it runs in the background;
+//! - `isr`: what the tick interrupt does per tick ([`Executor::tick`]: the
+//!   next setpoint from the ring to the step/dir outputs), mean and worst;
+//!   the application adds RTIC's entry and exit;
+//! - `override`: `Motion::set_override` (it re-plans the buffer), worst.
 //!
-//! Output: one line per shape and a summary, plain text on semihosting
-//! stdout (no defmt: this binary logs nothing else), e.g.
-//! `cost infinity points=2001 sched_mean=… sched_worst=… point_mean=… tick_worst=…`.
+//! Runs, in this order: `line` (100 mm of 0.05 mm segments from the origin,
+//! F_max 5000 mm/min), `infinity`, `trident`, `butterfly` (F_max 3000
+//! mm/min, the firmware's default), and the shapes again with `+events` (a
+//! feed hold, override changes and a starved stretch at fixed ticks:
+//! [`replay::EVENTS`]). Each path starts where the previous one ended
+//! (`Motion::restart`), the first at the origin, as in the firmware.
+//!
+//! Output: plain text on semihosting stdout (no defmt: this binary logs
+//! nothing else), one `cost <run> …` line per run, then `cost all …` (the
+//! shapes, with and without events), `cost load …` and `cost stack_bytes=…`.
 #![no_std]
 #![no_main]
 
 use cortex_m_rt::entry;
 use cortex_m_semihosting::hprintln;
-use fuzzy_core::scheduler::PathPoint;
-use fuzzy_core::units::Point3Mm;
-use fuzzy_firmware::config::{SEG_QUEUE, STEPS_PER_MM};
+use fuzzy_core::scheduler::SchedulerConfig;
+use fuzzy_core::units::{FeedMmPerMin, Point3Mm};
+use fuzzy_firmware::config::{MOTION_CONFIG, SCHED_CONFIG, SETPOINT_RING, STEPS_PER_MM};
 use fuzzy_firmware::measure::{self, cycles, cycles_since, qemu_instructions};
-use fuzzy_firmware::motion::{self, Cmd, Controls, Feeder, Interp, Output, SegItem, INTERP_CONFIG};
+use fuzzy_firmware::motion::{Executor, Plan, Setpoint};
+use fuzzy_firmware::replay::{self, Clock, Report, Stat};
+use fuzzy_firmware::ring::Ring;
 use fuzzy_firmware::stepper::Axes;
-use heapless::spsc::Queue;
 
 static SHAPES: [(&str, &[u8]); 3] = [
     (
@@ -46,41 +57,69 @@ static SHAPES: [(&str, &[u8]); 3] = [
     ),
 ];
 
-#[derive(Default, Clone, Copy)]
-struct Stat {
-    total: u64,
-    worst: u32,
-    n: u32,
-}
+/// Segments of the 0.05 mm line (100 mm).
+const LINE_SEGMENTS: u32 = 2000;
 
-impl Stat {
-    fn add(&mut self, cycles: u32) {
-        self.total += cycles as u64;
-        self.worst = self.worst.max(cycles);
-        self.n += 1;
+/// SysTick as a free-running cycle counter.
+struct SysTick;
+
+impl Clock for SysTick {
+    fn now(&mut self) -> u32 {
+        cycles()
     }
-    /// Mean per scheduled point: the pushes that released nothing and the
-    /// drains at the end count towards the points they led to.
-    fn mean_instr(&self, points: u32) -> u64 {
-        qemu_instructions(self.total) / (points.max(1) as u64)
-    }
-    fn worst_instr(&self) -> u64 {
-        qemu_instructions(self.worst as u64)
+    fn since(&mut self, start: u32) -> u32 {
+        cycles_since(start)
     }
 }
 
-fn point(c: &[u8], tag: u32) -> PathPoint {
-    let mut w = [0i64; 3];
-    for (i, v) in w.iter_mut().enumerate() {
-        let mut b = [0u8; 8];
-        b.copy_from_slice(&c[i * 8..i * 8 + 8]);
-        *v = i64::from_le_bytes(b);
-    }
-    PathPoint {
-        pos: Point3Mm::from_bits(w[0], w[1], w[2]),
-        feed_cap: None,
-        tag,
-    }
+fn mean(s: &Stat, per: u32) -> u64 {
+    qemu_instructions(s.total) / per.max(1) as u64
+}
+
+fn worst(s: &Stat) -> u64 {
+    qemu_instructions(s.worst as u64)
+}
+
+fn points(data: &'static [u8]) -> impl Iterator<Item = Point3Mm> {
+    data.chunks_exact(24).map(|c| {
+        let mut w = [0i64; 3];
+        for (i, v) in w.iter_mut().enumerate() {
+            let mut b = [0u8; 8];
+            b.copy_from_slice(&c[i * 8..i * 8 + 8]);
+            *v = i64::from_le_bytes(b);
+        }
+        Point3Mm::from_bits(w[0], w[1], w[2])
+    })
+}
+
+/// What one run measured, with the tick interrupt's figures.
+struct Measured {
+    r: Report,
+    isr: Stat,
+}
+
+fn print(name: &str, events: bool, m: &Measured) {
+    let r = &m.r;
+    hprintln!(
+        "cost {}{} points={} ticks={} moving_ticks={} underruns={} sched_mean={} sched_worst={} push_mean={} push_worst={} gen_mean={} gen_worst={} isr_mean={} isr_worst={} override_worst={} positions={:#018x} feed_sum={}",
+        name,
+        if events { "+events" } else { "" },
+        r.points,
+        r.ticks,
+        r.moving_ticks,
+        r.underruns,
+        mean(&r.sched, r.points),
+        worst(&r.sched),
+        mean(&r.push, r.push.n),
+        worst(&r.push),
+        mean(&r.gen, r.gen.n),
+        worst(&r.gen),
+        mean(&m.isr, m.isr.n),
+        worst(&m.isr),
+        worst(&r.overrides),
+        r.positions,
+        r.feed_sum
+    );
 }
 
 #[entry]
@@ -94,146 +133,105 @@ fn main() -> ! {
     measure::start_cycle_counter(&mut cp.SYST);
     let board = fuzzy_firmware::board::init(dp);
     let mut axes = Axes::new(board.axes, STEPS_PER_MM, Point3Mm::ORIGIN);
-    // Each shape starts where the previous one ended (as on a machine).
-    let mut start = Point3Mm::ORIGIN;
-    let mut all_points = 0u32;
-
-    // 1. The scheduler alone, per point (push, then drain at the end).
-    let (mut all_sched, mut all_point, mut all_tick) =
-        (Stat::default(), Stat::default(), Stat::default());
-    let mut feed_sum: i64 = 0;
-    for (name, data) in SHAPES.iter() {
-        let Ok(mut feeder) = Feeder::new(Point3Mm::ORIGIN) else {
-            fuzzy_firmware::fail()
-        };
-        let mut sched = Stat::default();
-        let s = feeder.scheduler_mut();
-        for (i, c) in data.chunks_exact(24).enumerate() {
-            let p = point(c, i as u32);
-            let t0 = cycles();
-            let r = s.push(p);
-            let dt = cycles_since(t0);
-            sched.add(dt);
-            if let Ok(Some(o)) = r {
-                feed_sum = feed_sum.wrapping_add(o.feed.0.to_bits());
-            }
-        }
-        s.finish();
-        loop {
-            let t0 = cycles();
-            let r = s.drain();
-            let dt = cycles_since(t0);
-            let Some(o) = r else { break };
-            sched.add(dt);
-            feed_sum = feed_sum.wrapping_add(o.feed.0.to_bits());
-        }
-
-        // 2. The feeder (scheduler + segment preparation) and the tick,
-        //    interleaved as in the firmware: the feeder fills the segment
-        //    queue, the tick empties it.
-        let Ok(mut feeder) = Feeder::new(start) else {
-            fuzzy_firmware::fail()
-        };
-        let Ok(mut interp) = Interp::new(INTERP_CONFIG, start) else {
-            fuzzy_firmware::fail()
-        };
-        let mut q: Queue<SegItem, SEG_QUEUE> = Queue::new();
-        let (mut seg_tx, mut seg_rx) = q.split();
-        let mut controls = Controls::default();
-        let (mut pstat, mut tstat) = (Stat::default(), Stat::default());
-        let points = data.len() / 24;
-        let mut next = 0usize;
-        let mut ended = false;
-        let mut t = 0u32;
-        let mut starve_until = 0u32;
-        loop {
-            // Events: hold at 1.5 s for 0.5 s, override 150 % then 50 %,
-            // and a starved stretch (no new points for 0.4 s) at 4 s.
-            match t {
-                1500 => controls.hold = Some(true),
-                2000 => controls.hold = Some(false),
-                2500 => controls.override_percent = Some(150),
-                3500 => controls.override_percent = Some(50),
-                4000 => starve_until = 4400,
-                4500 => controls.override_percent = Some(100),
-                _ => {}
-            }
-            while seg_tx.ready() && t >= starve_until && !ended {
-                let t0 = cycles();
-                let out = if feeder.is_draining() {
-                    feeder.drain()
-                } else if next < points {
-                    let p = point(&data[next * 24..next * 24 + 24], next as u32);
-                    next += 1;
-                    feeder.command(Cmd::Point(p)).unwrap_or(Output::Nothing)
-                } else {
-                    let _ = feeder.command(Cmd::EndPath);
-                    Output::Nothing
-                };
-                let dt = cycles_since(t0);
-                match out {
-                    Output::Point(_, item) => {
-                        pstat.add(dt);
-                        let _ = seg_tx.enqueue(item);
-                    }
-                    Output::PathEnd => {
-                        let _ = seg_tx.enqueue(SegItem::EndOfPath);
-                        ended = true;
-                    }
-                    Output::Nothing => {
-                        if next < points || feeder.is_draining() {
-                            pstat.add(dt);
-                        }
-                    }
-                }
-            }
-            let t0 = cycles();
-            motion::tick(&mut interp, &mut seg_rx, &mut controls, &mut axes);
-            tstat.add(cycles_since(t0));
-            t += 1;
-            if ended && interp.state() == fuzzy_core::interpolator::MotionState::Idle {
-                break;
-            }
-            if t > 10_000_000 {
-                fuzzy_firmware::fail()
-            }
-        }
-        start = interp.position();
-        let c = interp.counters();
-        let n = points as u32;
-        all_points += n;
-        hprintln!(
-            "cost {} points={} sched_mean={} sched_worst={} point_mean={} point_worst={} ticks={} tick_worst={} underruns={} lag={}",
-            name,
-            n,
-            sched.mean_instr(n),
-            sched.worst_instr(),
-            pstat.mean_instr(n),
-            pstat.worst_instr(),
-            tstat.n,
-            tstat.worst_instr(),
-            c.underruns,
-            axes.lag_events()
-        );
-        all_sched.total += sched.total;
-        all_sched.n += sched.n;
-        all_sched.worst = all_sched.worst.max(sched.worst);
-        all_point.total += pstat.total;
-        all_point.n += pstat.n;
-        all_point.worst = all_point.worst.max(pstat.worst);
-        all_tick.worst = all_tick.worst.max(tstat.worst);
-        all_tick.total += tstat.total;
-        all_tick.n += tstat.n;
+    let Ok(mut plan) = Plan::new(MOTION_CONFIG) else {
+        fuzzy_firmware::fail()
+    };
+    if replay::anchor(&mut plan, Point3Mm::ORIGIN).is_err() {
+        fuzzy_firmware::fail()
     }
+    let mut exec = Executor::new(Point3Mm::ORIGIN);
+    let mut ring: Ring<Setpoint, SETPOINT_RING> = Ring::new();
+    let (mut ring_tx, mut ring_rx) = ring.split();
+
+    let mut here = Point3Mm::ORIGIN;
+    let mut one = |name: &str,
+                   config: SchedulerConfig,
+                   path: &mut dyn Iterator<Item = Point3Mm>,
+                   events: bool,
+                   plan: &mut Plan|
+     -> Measured {
+        let mut isr = Stat::default();
+        let mut isr_clock = SysTick;
+        let r = replay::run(plan, config, here, path, events, &mut SysTick, |m, t| {
+            // What the background does with a generated tick ...
+            let _ = ring_tx.enqueue(Setpoint::of(m, t));
+            // ... and what the tick interrupt does with it.
+            let t0 = isr_clock.now();
+            exec.tick(&mut ring_rx, &mut axes);
+            let dt = isr_clock.since(t0);
+            exec.worst_cycles = exec.worst_cycles.max(dt);
+            isr.add(dt);
+        });
+        let Ok(r) = r else {
+            hprintln!("cost {}: {:?}", name, r.err());
+            fuzzy_firmware::fail()
+        };
+        here = r.end;
+        let m = Measured { r, isr };
+        print(name, events, &m);
+        m
+    };
+
+    let line_config =
+        SchedulerConfig::new(FeedMmPerMin::from_int(5000), FeedMmPerMin::from_int(60));
+    let line = one(
+        "line",
+        line_config,
+        &mut replay::line(LINE_SEGMENTS),
+        false,
+        &mut plan,
+    );
+    let mut all = [
+        line.r.sched,
+        line.r.push,
+        line.r.gen,
+        line.isr,
+        line.r.overrides,
+    ];
+    let mut points_all = line.r.points;
+    let mut feed_sum = line.r.feed_sum;
+    let runs = SHAPES
+        .iter()
+        .map(|s| (s, false))
+        .chain(SHAPES.iter().map(|s| (s, true)));
+    for ((name, data), events) in runs {
+        let m = one(name, SCHED_CONFIG, &mut points(data), events, &mut plan);
+        for (a, b) in all
+            .iter_mut()
+            .zip([m.r.sched, m.r.push, m.r.gen, m.isr, m.r.overrides])
+        {
+            a.merge(&b);
+        }
+        points_all += m.r.points;
+        feed_sum = feed_sum.wrapping_add(m.r.feed_sum);
+    }
+    let [sched, push, gen, isr, ov] = all;
     hprintln!(
-        "cost all sched_mean={} sched_worst={} point_mean={} point_worst={} tick_mean={} tick_worst={} feed_checksum={}",
-        all_sched.mean_instr(all_points),
-        all_sched.worst_instr(),
-        all_point.mean_instr(all_points),
-        all_point.worst_instr(),
-        all_tick.mean_instr(all_tick.n),
-        all_tick.worst_instr(),
+        "cost all sched_mean={} sched_worst={} push_mean={} push_worst={} gen_mean={} gen_worst={} isr_mean={} isr_worst={} override_worst={} feed_sum={}",
+        mean(&sched, points_all),
+        worst(&sched),
+        mean(&push, push.n),
+        worst(&push),
+        mean(&gen, gen.n),
+        worst(&gen),
+        mean(&isr, isr.n),
+        worst(&isr),
+        worst(&ov),
         feed_sum
+    );
+    // CPU share at 0.05 mm segments and 5000 mm/min: 1667 points/s through
+    // scheduler and planner, 1000 ticks/s generated, at 168 M instructions/s
+    // (permille; from the line's own figures).
+    let l = &line.r;
+    let per_point = mean(&l.sched, l.points) + mean(&l.push, l.push.n);
+    let per_s = per_point * 1667 + mean(&l.gen, l.gen.n) * 1000;
+    let isr_per_s = mean(&line.isr, line.isr.n) * 1000;
+    hprintln!(
+        "cost load line_per_point={} line_gen_mean={} background_permille={} isr_permille={}",
+        per_point,
+        mean(&l.gen, l.gen.n),
+        per_s / 168_000,
+        isr_per_s / 168_000
     );
     let mut probe = measure::StackProbe::new();
     hprintln!("cost stack_bytes={}", probe.full_scan());

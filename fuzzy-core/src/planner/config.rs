@@ -97,8 +97,9 @@ pub(crate) struct Limits {
     pub chord: i64,
     /// Reach of a point's corner limit (2.5 ticks at `feed_max`), mm.
     pub reach: i64,
-    /// Creep speed through a stop point (`J·Ts²/2`): arriving no faster, the
-    /// final deceleration is at most `J·Ts`, so stopping is jerk-limited.
+    /// Creep speed through a stop point (`min(J·Ts, A)·Ts/2`): arriving no
+    /// faster, the final deceleration is at most `J·Ts` and `A`, so stopping
+    /// is jerk- and acceleration-limited (at long ticks `J·Ts` can exceed `A`).
     pub creep: i64,
     /// mm/min (raw I32F32) → mm/tick (Q32): `× tick_us / 60e6`, as a Q48
     /// factor (a multiplication instead of a 128-bit division per point).
@@ -115,10 +116,11 @@ fn per_tick(value_q32: i128, tick_us: u32, k: u32, den: i128) -> i64 {
     let mut num = value_q32;
     let mut d = den;
     for _ in 0..k {
-        num *= tick_us as i128;
-        d *= 1_000_000;
+        num = num.saturating_mul(tick_us as i128);
+        d = d.saturating_mul(1_000_000);
     }
-    (num / d).clamp(0, i64::MAX as i128) as i64
+    num.checked_div(d)
+        .map_or(0, |q| q.clamp(0, i64::MAX as i128) as i64)
 }
 
 impl MotionConfig {
@@ -159,7 +161,10 @@ impl MotionConfig {
         let corner = self
             .axis_accel_max_mm_s2
             .map(|a| ((accel(a) as i128 * ((1 << 16) - share) as i128) >> 16) as i64);
-        let jerk = per_tick((self.jerk_max_mm_s3 as i128) << 32, t, 3, 1);
+        // Even (rounded down), so that a tick at full jerk changes the speed
+        // by exactly J/2: an odd J would lose half a quantum of speed per
+        // tick, and a long stop ramp would drift below v = a²/2J.
+        let jerk = per_tick((self.jerk_max_mm_s3 as i128) << 32, t, 3, 1) & !1;
         let feed_max = speed(self.feed_max);
         if tangential <= 0 || jerk <= 0 || feed_max <= 0 {
             return Err(ConfigError::Limit);
@@ -184,7 +189,7 @@ impl MotionConfig {
             jerk,
             chord,
             reach: feed_max * 5 / 2,
-            creep: (jerk / 2).max(1),
+            creep: (jerk.min(tangential) / 2).max(1),
             feed_to_tick_q48: ((t as i128) << 48).div_euclid(60_000_000) as i64,
             tick_to_feed_q16: ((60_000_000i128 << 16) / t as i128) as i64,
             tick_us: t,

@@ -4,7 +4,7 @@ use heapless::Deque;
 
 use super::brake::{integrate, speed_crossings, Brake};
 use super::config::{ConfigError, Limits, MotionConfig};
-use super::q::{div, mul, sqrt, ONE};
+use super::q::{div, mul, reach, sqrt, ONE};
 use crate::scheduler::ScheduledPoint;
 use crate::units::{CurvaturePerMm, FeedMmPerMin, Point3Mm};
 
@@ -177,6 +177,10 @@ pub struct Motion<const N: usize> {
     front_index: u32,
     /// Path index of the last point reached.
     reached: u32,
+    /// The last tick's step and its change (first and second differences
+    /// of `x`), for the final step onto a stop.
+    step: i64,
+    step_change: i64,
 }
 
 impl<const N: usize> Motion<N> {
@@ -206,6 +210,8 @@ impl<const N: usize> Motion<N> {
             seg_dir_valid: false,
             front_index: 0,
             reached: 0,
+            step: 0,
+            step_change: 0,
         })
     }
 
@@ -276,6 +282,8 @@ impl<const N: usize> Motion<N> {
         self.seg_dir_valid = false;
         self.front_index = 0;
         self.reached = 0;
+        self.step = 0;
+        self.step_change = 0;
         if let Some(pos) = here {
             let _ = self.nodes.push_back(Node {
                 pos,
@@ -338,7 +346,7 @@ impl<const N: usize> Motion<N> {
         if let Some(last) = self.nodes.back_mut() {
             let b = p.pos.to_bits();
             let l = last.pos.to_bits();
-            let d = [0, 1, 2].map(|k| b[k].saturating_sub(l[k]));
+            let d = zip3(b, l, i64::saturating_sub);
             let Some((dir, len)) = unit(d) else {
                 // A zero-length move: a node at the same place (the change
                 // of direction is counted at the later one).
@@ -356,8 +364,8 @@ impl<const N: usize> Motion<N> {
             node.ceil = node.ceil.min(seg);
             node.s = last.s.saturating_add(len);
             if let Some(prev) = self.last_dir {
-                last.turn = [0, 1, 2].map(|k| {
-                    let t = (dir[k] as i64 - prev[k] as i64).unsigned_abs(); // Q30
+                last.turn = zip3(dir, prev, |d, p| {
+                    let t = (d as i64 - p as i64).unsigned_abs(); // Q30
                     (t.div_ceil(1 << 16)).min(u16::MAX as u64) as u16 // Q14, up
                 });
             }
@@ -441,7 +449,7 @@ impl<const N: usize> Motion<N> {
                     .get(i)
                     .map_or(0, |n| ld(n.ceil))
                     .min(self.turn_limit(i))
-                    .max(self.lim.creep)
+                    .max(self.corner_creep())
             };
             if let Some(n) = self.nodes.get_mut(i) {
                 n.ceil = st(ceil);
@@ -455,6 +463,14 @@ impl<const N: usize> Motion<N> {
             self.finalized = i + 1;
             self.extend_envelope(i);
         }
+    }
+
+    /// The least speed through a corner, so that the tool never stalls on
+    /// one: the creep speed, but no faster than a reversal (`Σ|Δd_a| = 2`)
+    /// allows within the corner share `(1 − ρ)·A_a` of every axis.
+    fn corner_creep(&self) -> i64 {
+        let c = self.lim.corner_accel.iter().copied().min().unwrap_or(0);
+        self.lim.creep.min(c / 2).max(1)
     }
 
     /// The largest speed `v` with `v · Σ|Δd_a| <= (1 − ρ)·A_a·Ts` for every
@@ -489,8 +505,10 @@ impl<const N: usize> Motion<N> {
             // At speeds below d / 2.5 ticks the next vertex is out of the
             // window: stop once that speed already breaks the bound.
             let u_enter = mul(d, TWO_FIFTHS);
-            if (0..3)
-                .any(|k| ((sum[k] as i128 * u_enter as i128) >> 14) > lim.corner_accel[k] as i128)
+            if sum
+                .iter()
+                .zip(lim.corner_accel.iter())
+                .any(|(&s, &c)| ((s as i128 * u_enter as i128) >> 14) > c as i128)
             {
                 break;
             }
@@ -542,7 +560,7 @@ impl<const N: usize> Motion<N> {
     /// `√(T² + 2·D_env·d)`: the envelope a distance `d` before a point of
     /// envelope `T`.
     fn reach_from(&self, t: i64, d: i64) -> i64 {
-        sqrt(mul(t, t).saturating_add(mul(self.lim.envelope_decel, d.max(0)).saturating_mul(2)))
+        reach(t, self.lim.envelope_decel, d)
     }
 
     /// The envelope at node `i` from its own limits and node `i + 1`'s
@@ -719,6 +737,9 @@ impl<const N: usize> Motion<N> {
         let s_tail = self.nodes.get(tail).map_or(0, |n| n.s);
         let done = self.ended && tail + 1 == self.nodes.len();
         if self.x >= s_tail && self.at_rest() {
+            // At rest on the end of what is planned (which may be a run of
+            // points at the same place): all of them are reached.
+            self.reached = self.front_index.wrapping_add(tail as u32);
             return if done {
                 MotionState::Done
             } else {
@@ -732,6 +753,7 @@ impl<const N: usize> Motion<N> {
             && s_tail - self.x <= self.v.max(j / 16)
             && self.v <= self.lim.creep
             && self.a.abs() <= j
+            && self.last_step_ok(s_tail - self.x)
         {
             // Within one tick at the current (creep) speed of the stop, or
             // J·Ts³/16 short of it at rest: step onto it.
@@ -767,7 +789,11 @@ impl<const N: usize> Motion<N> {
             let (v2, a2, dx) = b.walk(ONE);
             (self.x.saturating_add(dx.max(0)), v2, a2)
         });
-        self.x = x2.min(s_tail);
+        let x_new = x2.min(s_tail);
+        let step = x_new - self.x;
+        self.step_change = step - self.step;
+        self.step = step;
+        self.x = x_new;
         self.v = v2;
         self.a = a2;
         if self.v == 0 && self.a < 0 {
@@ -799,6 +825,15 @@ impl<const N: usize> Motion<N> {
         } else {
             MotionState::Moving
         }
+    }
+
+    /// Whether a last step of `d` onto a stop, then rest, keeps the third
+    /// differences of the arc length (the discrete jerk: this step's, the
+    /// next tick's and the one after) within the jerk limit.
+    fn last_step_ok(&self, d: i64) -> bool {
+        let j = self.lim.jerk;
+        let change = d - self.step;
+        (change - self.step_change).abs() <= j && (d + change).abs() <= j && d <= j
     }
 
     /// Nodes crossed during a tick of `phases` (jerk >= 0, so the speed is
@@ -865,8 +900,7 @@ impl<const N: usize> Motion<N> {
         };
         if !self.seg_dir_valid {
             let (b, a) = (m.pos.to_bits(), n.pos.to_bits());
-            self.seg_dir =
-                unit([0, 1, 2].map(|k| b[k].saturating_sub(a[k]))).map_or([0; 3], |(d, _)| d);
+            self.seg_dir = unit(zip3(b, a, i64::saturating_sub)).map_or([0; 3], |(d, _)| d);
             self.seg_dir_valid = true;
         }
         if self.x >= m.s {
@@ -875,8 +909,10 @@ impl<const N: usize> Motion<N> {
         let off = (self.x - n.s).max(0);
         let p = n.pos.to_bits();
         let dir = self.seg_dir;
-        let at = |k: usize| p[k].saturating_add(((dir[k] as i128 * off as i128) >> 30) as i64);
-        Point3Mm::from_bits(at(0), at(1), at(2))
+        let [x, y, z] = zip3(p, dir, |p, d| {
+            p.saturating_add(((d as i128 * off as i128) >> 30) as i64)
+        });
+        Point3Mm::from_bits(x, y, z)
     }
 }
 
@@ -885,6 +921,15 @@ struct Stop {
     b: Brake,
     x: i64,
     k: usize,
+}
+
+/// `[f(a0, b0), f(a1, b1), f(a2, b2)]`, without indexing (no bounds checks
+/// left for the panic-free link check).
+#[inline]
+fn zip3<A: Copy, B: Copy, C>(a: [A; 3], b: [B; 3], mut f: impl FnMut(A, B) -> C) -> [C; 3] {
+    let [a0, a1, a2] = a;
+    let [b0, b1, b2] = b;
+    [f(a0, b0), f(a1, b1), f(a2, b2)]
 }
 
 /// A tick of jerk `jerk` from acceleration `a`, holding once `±acc` is reached.
@@ -908,11 +953,11 @@ fn step_phases(a: i64, jerk: i64, acc: i64) -> [(i64, i64); 2] {
 /// The speed allowed by per-axis limits along direction `d` (Q30 unit).
 fn axis_cap(axis: &[i64; 3], d: [i32; 3]) -> i64 {
     let mut c = i64::MAX;
-    for k in 0..3 {
-        let comp = (d[k] as i64).unsigned_abs() as i64;
+    for (&v, &dk) in axis.iter().zip(d.iter()) {
+        let comp = (dk as i64).unsigned_abs() as i64;
         if comp > 0 {
             // v·|d_k| <= V_k  ⇒  v <= V_k / |d_k|, |d_k| in Q30.
-            c = c.min(div(axis[k], comp << 2));
+            c = c.min(div(v, comp << 2));
         }
     }
     c

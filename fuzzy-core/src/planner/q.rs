@@ -57,6 +57,20 @@ pub(crate) fn sqrt(a: i64) -> i64 {
     Sf::from_u64(a as u64).sqrt().to_i64_scaled(16)
 }
 
+/// `√(t² + 2·a·d)` (all Q32, negative inputs taken as 0): the speed
+/// reached from `t` after `d` at `a`. The sum is kept in Q64 (`u128`):
+/// in Q32, squares of slow speeds (below 2^-16 mm/tick) round to zero.
+#[inline]
+pub(crate) fn reach(t: i64, a: i64, d: i64) -> i64 {
+    let t = t.max(0) as u128;
+    let sum = (t * t).saturating_add(2 * a.max(0) as u128 * d.max(0) as u128);
+    let bits = 128 - sum.leading_zeros() as i32;
+    // Bring the sum under 2^64 by an even shift, kept in the exponent.
+    let shift = if bits > 64 { (bits - 63) & !1 } else { 0 };
+    Sf::from_u64_exp((sum >> shift) as u64, shift)
+        .sqrt()
+        .to_i64_scaled(0)
+}
 
 #[cfg(test)]
 mod tests {
@@ -88,5 +102,21 @@ mod tests {
         assert_eq!(mul(i64::MAX, 2 << 32), i64::MAX);
         assert_eq!(div(ONE, 0), i64::MAX);
         assert_eq!(sqrt(-5), 0);
+        // reach keeps slow speeds: raw speeds of a few thousand (squares
+        // far below one Q32 step) and the full range.
+        for (t, a, d) in [
+            (0i64, 2684i64, 461_097i64),
+            (167, 2684, 20),
+            (1 << 40, 1 << 20, 1 << 42),
+            (0, 0, 0),
+        ] {
+            let exact = ((t as f64).powi(2) + 2.0 * a as f64 * d as f64).sqrt();
+            let got = reach(t, a, d) as f64;
+            assert!(
+                (got - exact).abs() <= 1e-9 * exact + 1.0,
+                "{t} {a} {d}: {got} vs {exact}"
+            );
+        }
+        assert_eq!(reach(i64::MAX, i64::MAX, i64::MAX), i64::MAX);
     }
 }

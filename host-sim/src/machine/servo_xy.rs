@@ -215,22 +215,11 @@ impl ServoXyConfig {
 
     /// The servo following reference positions sampled every `ts_s`.
     pub fn track(&self, reference: &[[f64; 3]], ts_s: f64) -> Vec<[f64; 3]> {
-        let steps = (ts_s / (self.step_us * 1e-6)).round().max(1.0) as usize;
-        let h = ts_s / steps as f64;
-        let mm_per_rad = self.lead_mm / std::f64::consts::TAU;
-        let params = [&self.x, &self.y, &self.y];
         let first = reference[0];
         let end = reference[reference.len() - 1];
-        let mut st = [AxisState::default(); 3];
-        for a in 0..3 {
-            st[a].theta_rad = first[a] / mm_per_rad;
-        }
         // A planar path leaves Z alone.
-        let axes = if reference.iter().all(|p| p[2] == first[2]) {
-            2
-        } else {
-            3
-        };
+        let planar = reference.iter().all(|p| p[2] == first[2]);
+        let mut servo = ServoXyState::new(self, first, planar);
         let mut out = Vec::with_capacity(reference.len() + 100);
         out.push(first);
         let settle_max = (1.0 / ts_s) as usize;
@@ -241,66 +230,117 @@ impl ServoXyConfig {
             } else {
                 (end, end)
             };
-            for a in 0..axes {
-                let p = params[a];
-                let s = &mut st[a];
-                let v_ref = (b_ref[a] - a_ref[a]) / ts_s;
-                for j in 0..steps {
-                    let x_ref = a_ref[a] + (b_ref[a] - a_ref[a]) * (j as f64 / steps as f64);
-                    let x = s.theta_rad * mm_per_rad;
-                    let xd = s.omega_rad_per_s * mm_per_rad;
-                    let e = self.counts_per_mm * (x_ref - x);
-                    let ed = self.counts_per_mm * (v_ref - xd);
-                    let i_ref = (p.kp_a_per_count * e + p.kd_a_s_per_count * ed)
-                        .clamp(-self.current_limit_a, self.current_limit_a);
-                    let ei = i_ref - s.current_a;
-                    let u_unsat = p.ksp_v_per_a * ei + p.ksi_v_per_a_s * (s.integral_a_s + ei * h);
-                    let u = u_unsat.clamp(-self.voltage_limit_v, self.voltage_limit_v);
-                    if u == u_unsat {
-                        s.integral_a_s += ei * h; // anti-windup: hold while saturated
-                    }
-                    s.current_a += h * (u - self.resistance_ohm * s.current_a) / self.inductance_h;
-                    let drive = p.torque_constant_n_m_per_a * s.current_a
-                        - p.viscous_n_m_s * s.omega_rad_per_s;
-                    let w_new = if s.omega_rad_per_s == 0.0 && drive.abs() <= p.coulomb_n_m {
-                        0.0 // stuck
-                    } else {
-                        let sgn = if s.omega_rad_per_s != 0.0 {
-                            s.omega_rad_per_s.signum()
-                        } else {
-                            drive.signum()
-                        };
-                        let w =
-                            s.omega_rad_per_s + h * (drive - p.coulomb_n_m * sgn) / p.inertia_kg_m2;
-                        // Friction cannot reverse the motion within a step.
-                        if s.omega_rad_per_s != 0.0 && w.signum() != s.omega_rad_per_s.signum() {
-                            0.0
-                        } else {
-                            w
-                        }
-                    };
-                    s.omega_rad_per_s = w_new;
-                    s.theta_rad += h * w_new;
-                }
-            }
-            let pos = [
-                st[0].theta_rad * mm_per_rad,
-                st[1].theta_rad * mm_per_rad,
-                st[2].theta_rad * mm_per_rad,
-            ];
+            let pos = servo.step(a_ref, b_ref, ts_s);
             out.push(pos);
             k += 1;
-            if k + 1 >= reference.len() {
-                let arrived = (0..3).all(|a| (pos[a] - end[a]).abs() < 1e-3)
-                    && st
-                        .iter()
-                        .all(|s| s.omega_rad_per_s.abs() * mm_per_rad < 1e-3);
-                if arrived || k + 1 >= reference.len() + settle_max {
-                    break;
-                }
+            if k + 1 >= reference.len()
+                && (servo.arrived(end) || k + 1 >= reference.len() + settle_max)
+            {
+                break;
             }
         }
         out
+    }
+}
+
+/// The servo's state, advanced one interpolation period at a time
+/// ([`ServoXyConfig::track`] runs it over a whole reference; a closed loop
+/// that chooses the next reference from the motion so far, as Cho et al.'s
+/// feed controller does, steps it itself).
+#[derive(Clone, Debug)]
+pub struct ServoXyState<'a> {
+    config: &'a ServoXyConfig,
+    axes: usize,
+    st: [AxisState; 3],
+}
+
+impl<'a> ServoXyState<'a> {
+    /// At rest at `start` (mm); `planar`: Z is not driven.
+    pub fn new(config: &'a ServoXyConfig, start: [f64; 3], planar: bool) -> Self {
+        let mm_per_rad = config.lead_mm / std::f64::consts::TAU;
+        let mut st = [AxisState::default(); 3];
+        for a in 0..3 {
+            st[a].theta_rad = start[a] / mm_per_rad;
+        }
+        ServoXyState {
+            config,
+            axes: if planar { 2 } else { 3 },
+            st,
+        }
+    }
+
+    /// Position, mm.
+    pub fn position(&self) -> [f64; 3] {
+        let mm_per_rad = self.config.lead_mm / std::f64::consts::TAU;
+        [
+            self.st[0].theta_rad * mm_per_rad,
+            self.st[1].theta_rad * mm_per_rad,
+            self.st[2].theta_rad * mm_per_rad,
+        ]
+    }
+
+    /// Whether every axis is within 1 µm of `end` and at rest (below
+    /// 1 µm/s).
+    pub fn arrived(&self, end: [f64; 3]) -> bool {
+        let mm_per_rad = self.config.lead_mm / std::f64::consts::TAU;
+        let pos = self.position();
+        (0..3).all(|a| (pos[a] - end[a]).abs() < 1e-3)
+            && self
+                .st
+                .iter()
+                .all(|s| s.omega_rad_per_s.abs() * mm_per_rad < 1e-3)
+    }
+
+    /// One interpolation period `ts_s` with the reference moving linearly
+    /// from `a_ref` to `b_ref`; returns the position at its end, mm.
+    pub fn step(&mut self, a_ref: [f64; 3], b_ref: [f64; 3], ts_s: f64) -> [f64; 3] {
+        let cfg = self.config;
+        let steps = (ts_s / (cfg.step_us * 1e-6)).round().max(1.0) as usize;
+        let h = ts_s / steps as f64;
+        let mm_per_rad = cfg.lead_mm / std::f64::consts::TAU;
+        let params = [&cfg.x, &cfg.y, &cfg.y];
+        for a in 0..self.axes {
+            let p = params[a];
+            let s = &mut self.st[a];
+            let v_ref = (b_ref[a] - a_ref[a]) / ts_s;
+            for j in 0..steps {
+                let x_ref = a_ref[a] + (b_ref[a] - a_ref[a]) * (j as f64 / steps as f64);
+                let x = s.theta_rad * mm_per_rad;
+                let xd = s.omega_rad_per_s * mm_per_rad;
+                let e = cfg.counts_per_mm * (x_ref - x);
+                let ed = cfg.counts_per_mm * (v_ref - xd);
+                let i_ref = (p.kp_a_per_count * e + p.kd_a_s_per_count * ed)
+                    .clamp(-cfg.current_limit_a, cfg.current_limit_a);
+                let ei = i_ref - s.current_a;
+                let u_unsat = p.ksp_v_per_a * ei + p.ksi_v_per_a_s * (s.integral_a_s + ei * h);
+                let u = u_unsat.clamp(-cfg.voltage_limit_v, cfg.voltage_limit_v);
+                if u == u_unsat {
+                    s.integral_a_s += ei * h; // anti-windup: hold while saturated
+                }
+                s.current_a += h * (u - cfg.resistance_ohm * s.current_a) / cfg.inductance_h;
+                let drive =
+                    p.torque_constant_n_m_per_a * s.current_a - p.viscous_n_m_s * s.omega_rad_per_s;
+                let w_new = if s.omega_rad_per_s == 0.0 && drive.abs() <= p.coulomb_n_m {
+                    0.0 // stuck
+                } else {
+                    let sgn = if s.omega_rad_per_s != 0.0 {
+                        s.omega_rad_per_s.signum()
+                    } else {
+                        drive.signum()
+                    };
+                    let w = s.omega_rad_per_s + h * (drive - p.coulomb_n_m * sgn) / p.inertia_kg_m2;
+                    // Friction cannot reverse the motion within a step.
+                    if s.omega_rad_per_s != 0.0 && w.signum() != s.omega_rad_per_s.signum() {
+                        0.0
+                    } else {
+                        w
+                    }
+                };
+                s.omega_rad_per_s = w_new;
+                s.theta_rad += h * w_new;
+            }
+        }
+        self.position()
     }
 }
 

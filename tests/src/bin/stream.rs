@@ -60,7 +60,7 @@ fn main() {
     fw.end_path();
     fw.flush(Duration::from_secs(3600));
     let end = fw.poll_until(Duration::from_millis(200), Duration::from_secs(3600), |s| {
-        s.motion == Motion::Idle && fw_done(s)
+        s.motion == Motion::Idle && fw_done(s, pts.len())
     });
     println!("seq,index,feed_mm_per_min");
     for r in fw.scheduled_in_order() {
@@ -74,6 +74,8 @@ fn main() {
     eprintln!("{:?}", end.last());
 }
 
-fn fw_done(s: &link::Status) -> bool {
-    s.segments_queued == 0 && s.points_held == 0
+/// Every point scheduled and reached by the planner (`point_reached`
+/// counts the path's points from 1).
+fn fw_done(s: &link::Status, points: usize) -> bool {
+    s.points_held == 0 && s.point_reached as usize >= points
 }

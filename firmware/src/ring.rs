@@ -1,0 +1,146 @@
+//! A single-producer single-consumer ring of `Copy` values, in safe code:
+//! `N` slots holding `N − 1`, indices wrapped by comparison (no division),
+//! slots reached with `get`, so no path can panic. Each operation is a short
+//! critical section (a few instructions with interrupts masked on the
+//! single-core Cortex-M4; `critical-section-single-core`).
+//!
+//! It replaces `heapless::spsc`, whose 0.9 queue takes its length at run
+//! time (`% n()`) and so left a division-by-zero panic path in the image
+//! built for size (`check.py panic`).
+
+use core::cell::Cell;
+use critical_section::Mutex;
+
+/// The ring: `N` slots (at least 2), `N − 1` usable.
+pub struct Ring<T: Copy, const N: usize> {
+    inner: Mutex<Inner<T, N>>,
+}
+
+struct Inner<T: Copy, const N: usize> {
+    slots: [Cell<Option<T>>; N],
+    /// Next slot to read.
+    head: Cell<usize>,
+    /// Next slot to write.
+    tail: Cell<usize>,
+}
+
+impl<T: Copy, const N: usize> Default for Ring<T, N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<T: Copy, const N: usize> Inner<T, N> {
+    /// The slot after `i` (for `i < N`).
+    const fn next(i: usize) -> usize {
+        if i + 1 >= N {
+            0
+        } else {
+            i + 1
+        }
+    }
+
+    fn len(&self) -> usize {
+        let (head, tail) = (self.head.get(), self.tail.get());
+        if tail >= head {
+            tail - head
+        } else {
+            tail + N - head
+        }
+    }
+}
+
+impl<T: Copy, const N: usize> Ring<T, N> {
+    const VALID: () = assert!(N >= 2, "a ring needs at least 2 slots");
+
+    /// An empty ring.
+    pub const fn new() -> Self {
+        #[allow(clippy::let_unit_value)]
+        let () = Self::VALID;
+        Ring {
+            inner: Mutex::new(Inner {
+                slots: [const { Cell::new(None) }; N],
+                head: Cell::new(0),
+                tail: Cell::new(0),
+            }),
+        }
+    }
+
+    /// The producer and consumer ends.
+    pub fn split(&mut self) -> (Producer<'_, T, N>, Consumer<'_, T, N>) {
+        let ring: &Self = self;
+        (Producer { ring }, Consumer { ring })
+    }
+
+    fn with<R>(&self, f: impl FnOnce(&Inner<T, N>) -> R) -> R {
+        critical_section::with(|cs| f(self.inner.borrow(cs)))
+    }
+}
+
+/// The writing end.
+pub struct Producer<'a, T: Copy, const N: usize> {
+    ring: &'a Ring<T, N>,
+}
+
+/// The reading end.
+pub struct Consumer<'a, T: Copy, const N: usize> {
+    ring: &'a Ring<T, N>,
+}
+
+impl<T: Copy, const N: usize> Producer<'_, T, N> {
+    /// Values the ring holds when full (`N − 1`).
+    pub const fn capacity(&self) -> usize {
+        N - 1
+    }
+
+    /// Whether there is room for a value.
+    pub fn ready(&self) -> bool {
+        self.ring.with(|r| r.len() < N - 1)
+    }
+
+    /// Append `value`; gives it back when the ring is full.
+    pub fn enqueue(&mut self, value: T) -> Result<(), T> {
+        self.ring.with(|r| {
+            let tail = r.tail.get();
+            let next = Inner::<T, N>::next(tail);
+            match r.slots.get(tail) {
+                Some(slot) if next != r.head.get() => {
+                    slot.set(Some(value));
+                    r.tail.set(next);
+                    Ok(())
+                }
+                _ => Err(value),
+            }
+        })
+    }
+}
+
+impl<T: Copy, const N: usize> Consumer<'_, T, N> {
+    /// Whether a value is waiting.
+    pub fn ready(&self) -> bool {
+        !self.is_empty()
+    }
+
+    /// Values waiting.
+    pub fn len(&self) -> usize {
+        self.ring.with(|r| r.len())
+    }
+
+    /// Whether the ring is empty.
+    pub fn is_empty(&self) -> bool {
+        self.ring.with(|r| r.head.get() == r.tail.get())
+    }
+
+    /// Take the oldest value.
+    pub fn dequeue(&mut self) -> Option<T> {
+        self.ring.with(|r| {
+            let head = r.head.get();
+            if head == r.tail.get() {
+                return None;
+            }
+            let value = r.slots.get(head)?.take();
+            r.head.set(Inner::<T, N>::next(head));
+            value
+        })
+    }
+}

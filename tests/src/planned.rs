@@ -1,0 +1,299 @@
+//! The firmware's planned motion, recomputed on the host and checked.
+//!
+//! The firmware reports every input its velocity planner takes with the
+//! number of setpoints it had generated before ([`PlanLog`]: points through
+//! `DeviceMsg::Scheduled`, end of path, hold, resume and override through
+//! `DeviceMsg::Planned`), and in each status a checksum of every setpoint
+//! generated since boot. [`replay`] feeds the same inputs at the same ticks
+//! into a `fuzzy_core::planner::Motion` on the host, mirroring the
+//! firmware's `motion::Planner` (start at rest at the origin; a new path
+//! restarts the planner once the previous one is done; a first point where
+//! the tool already is merges into the start). Then:
+//! - [`Replayed::check_statuses`]: the firmware's checksum equals the
+//!   host's at every status received (the motion is the same bit for bit),
+//!   and the executed position equals the host's setpoint at the tick
+//!   being executed;
+//! - [`check_limits`]: the setpoints respect the per-axis speed and
+//!   acceleration limits and the tangential acceleration and jerk
+//!   (quantisation allowances as in `fuzzy-core/tests/planner.rs`).
+
+use std::collections::HashMap;
+
+use fuzzy_core::lin2021::CONTROLLER;
+use fuzzy_core::planner::{Motion, MotionConfig, MotionPoint, MotionState, Tick};
+use fuzzy_core::scheduler::{PathPoint, ScheduledPoint, Scheduler, SchedulerConfig};
+use fuzzy_core::units::Point3Mm;
+use link::{PlanEvent, Status};
+
+use crate::firmware::PlanLog;
+
+/// Points the firmware's planner buffers (`firmware/src/config.rs`
+/// `PLANNER_POINTS`; the firmware's hello says it, tests compare).
+pub const PLANNER_POINTS: usize = 112;
+
+/// The planner as the firmware has it.
+pub type Plan = Motion<PLANNER_POINTS>;
+
+/// The firmware's planner settings with its default build (its
+/// `MOTION_CONFIG` is `MotionConfig::default()` then; the hello's feed
+/// maximum and acceleration are compared with it).
+pub fn motion_config() -> MotionConfig {
+    MotionConfig::default()
+}
+
+/// The host's schedule of a path whose points carry sequence numbers
+/// `seqs` (the firmware tags each point with its sequence number), by
+/// sequence number.
+pub fn schedule(
+    config: SchedulerConfig,
+    pts: &[Point3Mm],
+    seqs: &[u32],
+) -> HashMap<u32, ScheduledPoint> {
+    let mut s: Scheduler<_, 30, 9, 40> = Scheduler::new(&CONTROLLER, config).expect("config");
+    let mut out = HashMap::new();
+    s.run(
+        pts.iter().zip(seqs).map(|(p, seq)| PathPoint {
+            pos: *p,
+            feed_cap: None,
+            tag: *seq,
+        }),
+        |o| {
+            out.insert(o.point.tag, o);
+        },
+    )
+    .expect("schedule");
+    out
+}
+
+/// FNV-1a over 64-bit words, as `firmware/src/replay.rs`.
+#[derive(Clone, Copy, Debug)]
+struct Checksum(u64);
+
+impl Checksum {
+    fn add_pos(&mut self, p: Point3Mm) {
+        for c in p.to_bits() {
+            self.0 = (self.0 ^ c as u64).wrapping_mul(0x0000_0100_0000_01B3);
+        }
+    }
+    fn folded(&self) -> u32 {
+        (self.0 ^ (self.0 >> 32)) as u32
+    }
+}
+
+/// The host's planner run over the firmware's inputs.
+pub struct Replayed {
+    /// Every generated tick, from boot.
+    pub ticks: Vec<Tick>,
+    /// `checksums[k]`: of the first `k` ticks' positions, folded to 32 bits.
+    pub checksums: Vec<u32>,
+    /// The tangential acceleration limit, mm/s².
+    pub accel_mm_s2: f64,
+}
+
+/// Replay `log` (every input of the firmware's planner since boot, in
+/// order) with the points of `points` (by sequence number) until `upto`
+/// ticks are generated.
+pub fn replay(
+    config: MotionConfig,
+    points: &HashMap<u32, ScheduledPoint>,
+    log: &[PlanLog],
+    upto: u32,
+) -> Replayed {
+    let mut m: Box<Plan> = Box::new(Plan::new(config).expect("planner settings"));
+    // At rest at the origin, as the firmware's `Planner::new`.
+    m.push(MotionPoint {
+        pos: Point3Mm::ORIGIN,
+        ..MotionPoint::default()
+    })
+    .expect("anchor");
+    m.end_path();
+    let (mut last, mut ended, mut here) = (MotionState::Done, true, Point3Mm::ORIGIN);
+    let mut sum = Checksum(0xCBF2_9CE4_8422_2325);
+    let mut r = Replayed {
+        ticks: Vec::new(),
+        checksums: vec![sum.folded()],
+        accel_mm_s2: m.accel_limit_mm_s2().to_num::<f64>(),
+    };
+    let mut gen = |m: &mut Plan, r: &mut Replayed, last: &mut MotionState, here: &mut Point3Mm| {
+        let t = m.tick();
+        sum.add_pos(t.pos);
+        r.checksums.push(sum.folded());
+        *last = t.state;
+        *here = t.pos;
+        r.ticks.push(t);
+    };
+    for (k, e) in log.iter().enumerate() {
+        assert!(
+            e.tick() as usize >= r.ticks.len(),
+            "planner input {k} ({e:?}) at tick {} before the previous one's tick {}",
+            e.tick(),
+            r.ticks.len()
+        );
+        while (r.ticks.len() as u32) < e.tick() {
+            gen(&mut m, &mut r, &mut last, &mut here);
+        }
+        match *e {
+            PlanLog::Point { seq, .. } => {
+                let s = points
+                    .get(&seq)
+                    .unwrap_or_else(|| panic!("point seq {seq} not scheduled on the host"));
+                let p = MotionPoint::from(s);
+                if ended {
+                    assert_eq!(last, MotionState::Done, "seq {seq}: restart while moving");
+                    m.restart().expect("restart");
+                    ended = false;
+                    if p.pos == here {
+                        continue;
+                    }
+                }
+                m.push(p)
+                    .unwrap_or_else(|e| panic!("seq {seq}: the host planner refused it: {e:?}"));
+            }
+            PlanLog::Event { event, .. } => match event {
+                PlanEvent::EndPath => {
+                    m.end_path();
+                    ended = true;
+                }
+                PlanEvent::Hold => m.set_hold(true),
+                PlanEvent::Resume => m.set_hold(false),
+                PlanEvent::Override(p) => m.set_override(p),
+            },
+        }
+    }
+    while (r.ticks.len() as u32) < upto {
+        gen(&mut m, &mut r, &mut last, &mut here);
+    }
+    r
+}
+
+impl Replayed {
+    /// The firmware's statuses against the host's run: the checksum of the
+    /// generated setpoints and the position being executed, bit for bit.
+    /// Returns how many statuses were compared.
+    pub fn check_statuses(&self, name: &str, statuses: &[Status]) -> usize {
+        for (k, s) in statuses.iter().enumerate() {
+            let g = s.generated_ticks as usize;
+            assert!(g < self.checksums.len(), "{name}: replay too short");
+            assert_eq!(
+                s.positions_checksum, self.checksums[g],
+                "{name}: status {k}: the firmware's setpoints differ from the host's within the first {g} ticks"
+            );
+            let executed = s.ticks.wrapping_sub(s.empty_ticks) as usize;
+            let want = match executed {
+                0 => Point3Mm::ORIGIN,
+                n => self.ticks[n - 1].pos,
+            };
+            assert_eq!(
+                s.pos_mm,
+                want.to_bits(),
+                "{name}: status {k}: position at executed tick {executed}"
+            );
+        }
+        statuses.len()
+    }
+
+    /// The host's setpoint positions from tick `from` on.
+    pub fn positions(&self, from: usize) -> impl Iterator<Item = [f64; 3]> + '_ {
+        self.ticks[from..].iter().map(|t| {
+            let b = t.pos.to_bits();
+            b.map(|c| c as f64 / 4294967296.0)
+        })
+    }
+}
+
+/// Peak ratios to the limits of a run of setpoints.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Peaks {
+    /// Per-axis speed / limit.
+    pub axis_vel: f64,
+    /// Per-axis acceleration (second difference of positions) / limit.
+    pub axis_acc: f64,
+    /// Tangential acceleration / the planner's limit.
+    pub tang_acc: f64,
+    /// Tangential jerk (third difference of the arc length) / limit.
+    pub jerk: f64,
+    /// Largest tangential speed, mm/min.
+    pub feed_max: f64,
+    /// Tick (index in the slice) where the jerk peaks.
+    pub jerk_at: usize,
+    /// Jerk / limit of the last step of a stop onto its point (excluded
+    /// from `jerk`: the planner arrives at creep speed, at most `J·Ts²/2`,
+    /// and steps onto the point; `fuzzy_core::planner` docs).
+    pub stop_step_jerk: f64,
+}
+
+/// Peaks of `ticks` against `config`'s limits (`accel_mm_s2`: the
+/// tangential limit).
+pub fn peaks(ticks: &[Tick], config: &MotionConfig, accel_mm_s2: f64) -> Peaks {
+    let ts = config.tick_us as f64 * 1e-6;
+    let q = 4294967296.0;
+    let pos: Vec<[f64; 3]> = ticks
+        .iter()
+        .map(|t| t.pos.to_bits().map(|c| c as f64 / q))
+        .collect();
+    let mut p = Peaks::default();
+    // Axis k of three positions in a row.
+    #[allow(clippy::needless_range_loop)]
+    for w in pos.windows(2) {
+        for k in 0..3 {
+            let v = (w[1][k] - w[0][k]).abs() / ts;
+            p.axis_vel = p
+                .axis_vel
+                .max(v / (config.axis_speed_max[k].to_f64() / 60.0));
+        }
+    }
+    #[allow(clippy::needless_range_loop)]
+    for w in pos.windows(3) {
+        for k in 0..3 {
+            let a = (w[2][k] - 2.0 * w[1][k] + w[0][k]).abs() / (ts * ts);
+            p.axis_acc = p.axis_acc.max(a / config.axis_accel_max_mm_s2[k] as f64);
+        }
+    }
+    for w in ticks.windows(2) {
+        let dv = (w[1].speed - w[0].speed) as f64 / q / (ts * ts);
+        p.tang_acc = p.tang_acc.max(dv.abs() / accel_mm_s2);
+    }
+    // Creep speed J·Ts²/2 in mm/tick, raw Q32.
+    let creep = config.jerk_max_mm_s3 as f64 * ts * ts * ts / 2.0 * q;
+    for (k, w) in ticks.windows(4).enumerate() {
+        let s: Vec<f64> = w.iter().map(|t| t.s_mm.to_num::<f64>()).collect();
+        // Only within one path (the arc length restarts at a new path).
+        if s[0] <= s[1] && s[1] <= s[2] && s[2] <= s[3] {
+            let d3 = s[3] - 3.0 * s[2] + 3.0 * s[1] - s[0];
+            let j = d3.abs() / (ts * ts * ts) / config.jerk_max_mm_s3 as f64;
+            let step_on = w[1..]
+                .windows(2)
+                .any(|v| v[1].speed == 0 && v[0].speed > 0 && v[0].speed as f64 <= creep);
+            if step_on {
+                p.stop_step_jerk = p.stop_step_jerk.max(j);
+            } else if j > p.jerk {
+                p.jerk = j;
+                p.jerk_at = k;
+            }
+        }
+    }
+    for t in ticks {
+        p.feed_max = p.feed_max.max(t.speed as f64 / q / ts * 60.0);
+    }
+    p
+}
+
+/// Assert every limit (quantisation allowances: positions are exact to
+/// 2⁻³² mm, so a k-th difference to 2^k quanta).
+pub fn check_limits(name: &str, p: &Peaks, config: &MotionConfig) {
+    let ts = config.tick_us as f64 * 1e-6;
+    let q = 2f64.powi(-32);
+    let amin = *config.axis_accel_max_mm_s2.iter().min().unwrap_or(&1) as f64;
+    let acc_tol = 4.0 * q / (ts * ts) / amin + 1e-9;
+    let jerk_tol = 8.0 * q / (ts * ts * ts) / config.jerk_max_mm_s3 as f64 + 1e-6;
+    assert!(p.axis_vel <= 1.0 + 1e-9, "{name}: axis speed {p:?}");
+    assert!(
+        p.axis_acc <= 1.0 + acc_tol,
+        "{name}: axis acceleration {p:?}"
+    );
+    assert!(
+        p.tang_acc <= 1.0 + 1e-6,
+        "{name}: tangential acceleration {p:?}"
+    );
+    assert!(p.jerk <= 1.0 + jerk_tol, "{name}: tangential jerk {p:?}");
+}
