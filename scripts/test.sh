@@ -16,6 +16,9 @@ cargo fmt --all --check
 step "lints"
 cargo clippy --workspace --all-targets -q -- -D warnings
 
+step "fuzzy-core docs build without warnings"
+RUSTDOCFLAGS="-D warnings" cargo doc -q -p fuzzy-core --no-deps
+
 step "fuzzy-core builds for thumbv7em-none-eabihf (no_std, no alloc)"
 cargo build -q -p fuzzy-core --target thumbv7em-none-eabihf --release
 

@@ -5,7 +5,7 @@
 //! # The paper's model and ours
 //!
 //! Cho et al. take the contour-error model of Joo, Lee, Lee & Jeon (their
-//! ref. [5], in Korean, not among the seeds): "a variable size window is used
+//! ref. \[5\], in Korean, not among the seeds): "a variable size window is used
 //! to find two closest points between previous reference points and the
 //! current tool position. With these two points, we can determine the contour
 //! error by considering the geometrical relationship." The window's sizing
@@ -47,7 +47,7 @@
 //! [`ContourEstimate::error`] is signed in the X-Y plane: positive when the
 //! tool is left of the nearest segment's direction of travel. Cho et al.'s
 //! rule table has negative and positive error terms (NB..PB), so the model
-//! of their ref. [5] is signed; which side is positive is not said. A
+//! of their ref. \[5\] is signed; which side is positive is not said. A
 //! segment without X-Y extent (a plunge) gives a positive sign.
 //!
 //! # Arithmetic and cost

@@ -230,7 +230,7 @@ pub static CONTROLLER: Lin2021Controller = match Controller::new(&SYSTEM) {
 /// How the curvature variation Dκ is normalised to the controller's `[0, 1]`
 /// (section 2.7.1 A: "normalized to the interval [0, 1] based on the maximum
 /// and minimum values … if the curvature variation remains greater than 3,
-/// [it] is represented by the maximum value of 3").
+/// \[it\] is represented by the maximum value of 3").
 ///
 /// The paper normalises by the minimum and maximum over the whole path,
 /// which a streaming scheduler cannot know in advance. The default is the

@@ -415,6 +415,38 @@ fn real_gcode_within_limits() {
 }
 
 #[test]
+fn dense_curves_run_at_the_corner_share_of_the_acceleration() {
+    // Circles sampled far finer than a tick of travel: the corner limit
+    // weighs each vertex by the second difference's hat function, so the
+    // tool runs near v²κ = (1 − ρ)·A (here 0.5 · 2000 mm/s²), not a
+    // fraction of it, and no axis exceeds its limit.
+    let cfg = MotionConfig::default();
+    for (r, h) in [(2.0f64, 0.005f64), (5.0, 0.02), (20.0, 0.05)] {
+        let n = (2.0 * std::f64::consts::PI * r / h) as usize;
+        let pts: Vec<[f64; 3]> = (0..=n)
+            .map(|i| {
+                let a = i as f64 * h / r;
+                [r * a.cos(), r * a.sin(), 0.0]
+            })
+            .collect();
+        let points = constant(&pts, 20_000);
+        let (plan, accel) = whole_plan(&points, cfg);
+        let ceiling = plan[plan.len() / 2].ceiling.to_f64();
+        let centripetal = (1000.0 * r).sqrt() * 60.0; // mm/min
+        let expect = centripetal.min(cfg.feed_max.to_f64());
+        eprintln!("circle r {r} mm, chords {h} mm: ceiling {ceiling:.0} mm/min, √((1 − ρ)·A·r) {centripetal:.0}");
+        assert!(
+            ceiling >= 0.93 * expect && ceiling <= expect + 1.0,
+            "r {r}: {ceiling}"
+        );
+        let ticks = drive(&points, cfg, |_, _| {});
+        let p = peaks(&ticks, &cfg, accel);
+        assert_physical("dense circle", &p, &cfg);
+        assert_on_path("dense circle", &ticks, &pts, 1e-6);
+    }
+}
+
+#[test]
 fn sharp_corners_and_short_segments() {
     let cfg = MotionConfig::default();
     // A square spiral: 90° corners between long segments.

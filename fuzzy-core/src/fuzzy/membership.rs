@@ -6,7 +6,7 @@
 //! [`crate::fuzzy::export`] evaluates the same in MATLAB, Octave's
 //! fuzzy-logic-toolkit and fuzzylite. Degrees are Q16.16 in `[0, 1]`.
 //!
-//! A definition is compiled once ([`CompiledMf::compile`]) into a form that
+//! A definition is compiled once (`CompiledMf::compile`) into a form that
 //! needs no division per evaluation (reciprocal slopes, `1/σ`, `log2 a`).
 
 use crate::fixmath::{exp2_neg_q30, log2_q32, LOG2E_Q30};

@@ -21,25 +21,30 @@
 //!   override, within the configured maximum feed;
 //! - per-axis velocity on both adjacent segments (`v·|d_a| <= V_a`);
 //! - the direction changes near it: the commanded positions form a polyline,
-//!   and a vertex passed at speed `v` changes axis `a`'s velocity by
-//!   `v·|Δd_a|` within one tick. The vertices within 2.5 ticks of travel *at
-//!   that speed* (both sides) share the reserve `(1 − ρ)·A_a` of each axis'
-//!   acceleration: `v·Σ|Δd_a| <= (1 − ρ)·A_a·Ts`, solved for the largest
-//!   `v` (the sum grows with the window, so vertices are taken in order of
-//!   distance). This is safe for every tick (a tick's second difference
-//!   weighs each vertex within one tick of travel by at most `v·Ts`, and
-//!   the ticks touching a vertex reach 2 ticks either side; 2.5 covers
-//!   the speed changing within them) and exact at a single sharp corner
-//!   (it slows the tool to what one tick can turn); on a densely sampled
-//!   curve it is conservative: the centripetal acceleration `v²κ` stays
-//!   below `(1 − ρ)·A/5`;
+//!   and a tick's second difference of axis `a` at a tool position `c`
+//!   (steps of `u = v·Ts` either side) is the tangential change plus
+//!   `Σ_k Δd_k,a · w_k`, where each vertex `k` within `u` of `c` weighs
+//!   `w_k = u − |s_k − c|` (a hat: the travel between the vertex and the far
+//!   end of the stencil). Keeping the tangential part within `ρ·A_a` (the
+//!   executor) leaves `Σ_k |Δd_k,a|·(u − |s_k − c|)⁺ <= (1 − ρ)·A_a·Ts²` for
+//!   the direction changes. As a function of `c` that sum is piecewise
+//!   linear with its peaks at vertices, so checking it with `c` at every
+//!   point is enough: the ceiling is the largest `v` meeting it at the point
+//!   (vertices taken in order of distance, `u` solved on the last linear
+//!   piece). It is exact at a single sharp corner (`v·|Δd_a| <= (1 − ρ)·A_a·Ts`:
+//!   what one tick can turn) and gives `v²κ <= (1 − ρ)·A` on a densely
+//!   sampled curve (the centripetal share). The speed is taken as equal on
+//!   both sides of the stencil (the acceleration within a tick is neglected
+//!   in the weights: a relative `ρ·A·Ts/v`; the property tests check the
+//!   resulting per-axis acceleration);
 //! - the chord-error bound of the interpolation period,
 //!   `v <= (2/Ts)·√(2δ/κ − δ²)` (the chord of one tick on a circle of
 //!   curvature κ deviates at most δ);
 //! - at the start and end of a path the creep speed `J·Ts²/2`, i.e. a stop.
 //!
-//! A segment shorter than the corner reach (2.5 ticks at the maximum feed)
-//! also inherits its end points' ceilings (they hold along it).
+//! A segment shorter than the corner reach (2.5 ticks at the maximum feed,
+//! also how far ahead a point waits for its neighbours before its ceiling
+//! is final) inherits its end points' ceilings (they hold along it).
 //!
 //! # Envelope (backward pass)
 //! `T_i = min(ceilings, caps, √(T_{i+1}² + 2·D_env·L_i))`,
@@ -77,8 +82,25 @@
 //! tick); this planner bounds the tangential jerk, as issue 6 allows.
 //!
 //! At a stop (the end of a path, or of what is buffered) the tool arrives at
-//! creep speed or less and steps onto the point (a speed step of at most
-//! `J·Ts²/2`).
+//! creep speed (`min(J·Ts, ρ·A)·Ts/2`) or less and steps onto the point,
+//! only when that last step, and the rest after it, keep the third
+//! difference of the arc length within `J·Ts³`. A corner is never passed
+//! slower than the creep speed, nor faster than a reversal allows within
+//! the corner share (so the tool never stalls on one).
+//!
+//! # Resolution
+//! Positions, speeds and accelerations are Q32 per tick (2^-32 mm ≈ 0.23
+//! pm). The per-tick jerk is rounded down to an even number of quanta, so a
+//! tick at full jerk changes the speed by exactly `J/2` and a stop's final
+//! ramp keeps `v − a²/2J` (the distance from the curve on which speed and
+//! acceleration reach zero together) constant. Where that ramp begins part
+//! way through a tick, the acceleration is rounded to a quantum, which moves
+//! the state off the curve by up to `|a|/J` quanta of speed (at most `ρA/J`
+//! per tick, e.g. 20 at 1 kHz with the defaults); the stop sheds that in its
+//! last tick, so the arc length's third difference may exceed `J·Ts³` by
+//! that many quanta (4.7 pm at the defaults, 0.009 % of `J`). The
+//! tangential jerk of the planned profile itself never exceeds `J`.
+//! `ConfigError::Resolution` refuses a jerk below 256 quanta per tick.
 //!
 //! # Cost
 //! Per point: a window over the vertices within the corner reach, a few

@@ -146,9 +146,6 @@ fn ld(u: u32) -> i64 {
     (u as i64) << 4
 }
 
-/// `2/5` in Q32: the window of a vertex is 2.5 ticks of travel.
-const TWO_FIFTHS: i64 = 1_717_986_918;
-
 /// The streaming velocity planner and interpolation executor for up to `N`
 /// buffered points. See the [module documentation](super).
 #[derive(Clone, Debug)]
@@ -473,18 +470,24 @@ impl<const N: usize> Motion<N> {
         self.lim.creep.min(c / 2).max(1)
     }
 
-    /// The largest speed `v` with `v · Σ|Δd_a| <= (1 − ρ)·A_a·Ts` for every
-    /// axis, the sum taken over the vertices within `2.5·v·Ts` of node `i`
-    /// (both sides). `v·Σ(v)` grows with `v`, so the vertices are taken in
-    /// order of distance until the bound falls inside the distance reached.
+    /// The largest speed at node `i` for which the direction changes near it
+    /// keep every axis within its corner share `(1 − ρ)·A_a` (module docs,
+    /// "Ceilings"): with `U` the travel of a tick (the speed) and `δ_k` each
+    /// vertex's distance from node `i`,
+    /// `Σ_k |Δd_k,a|·(U − δ_k)⁺ <= (1 − ρ)·A_a·Ts²`. The left side is
+    /// piecewise linear and increasing in `U`; the vertices are taken in
+    /// order of distance while the bound still holds at the next one, then
+    /// `U` is solved on the last piece.
     fn turn_limit(&self, i: usize) -> i64 {
         let Some(n) = self.nodes.get(i) else {
             return 0;
         };
         let lim = &self.lim;
-        let mut sum = n.turn.map(i64::from); // Q14
+        // Per axis: S = Σ|Δd| (Q14), W = Σ|Δd|·δ (Q32 mm) over the vertices
+        // taken; the bound at travel U is S·U − W.
+        let mut sum = n.turn.map(i64::from);
+        let mut weighted = [0i64; 3];
         let (mut left, mut right) = (i.checked_sub(1), i + 1);
-        let mut dist = 0i64; // distance of the last vertex taken
         loop {
             // The nearer of the next vertices on either side, within reach.
             let dl = left
@@ -502,14 +505,14 @@ impl<const N: usize> Motion<N> {
                 (_, Some(b)) => (b, false),
                 (None, None) => break,
             };
-            // At speeds below d / 2.5 ticks the next vertex is out of the
-            // window: stop once that speed already breaks the bound.
-            let u_enter = mul(d, TWO_FIFTHS);
-            if sum
+            // At travel U = d the next vertex starts to count: stop if the
+            // bound is already broken there (the solution lies before it).
+            let broken = sum
                 .iter()
+                .zip(weighted.iter())
                 .zip(lim.corner_accel.iter())
-                .any(|(&s, &c)| ((s as i128 * u_enter as i128) >> 14) > c as i128)
-            {
+                .any(|((&s, &w), &c)| ((s as i128 * d as i128) >> 14) - w as i128 > c as i128);
+            if broken {
                 break;
             }
             let m = if from_left {
@@ -521,19 +524,20 @@ impl<const N: usize> Motion<N> {
                 self.nodes.get(right - 1)
             };
             if let Some(m) = m {
-                for (acc, &t) in sum.iter_mut().zip(m.turn.iter()) {
-                    *acc += i64::from(t);
+                for ((s, w), &t) in sum.iter_mut().zip(weighted.iter_mut()).zip(m.turn.iter()) {
+                    *s += i64::from(t);
+                    *w = w.saturating_add(((i64::from(t) as i128 * d as i128) >> 14) as i64);
                 }
             }
-            dist = d;
         }
+        // U = (B + W) / S on the last piece, the least over the axes.
         let mut u = i64::MAX;
-        for (&s, &c) in sum.iter().zip(lim.corner_accel.iter()) {
+        for ((&s, &w), &c) in sum.iter().zip(weighted.iter()).zip(lim.corner_accel.iter()) {
             if s > 0 {
-                u = u.min(div(c, s << 18)); // Σ Q14 → Q32
+                u = u.min(div(c.saturating_add(w), s << 18)); // Σ Q14 → Q32
             }
         }
-        u.max(mul(dist, TWO_FIFTHS))
+        u
     }
 
     /// The cap of the segment from node `i` to `i + 1` (both ceilings final).
