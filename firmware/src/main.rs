@@ -3,8 +3,8 @@
 //! | task | runs on | priority | does |
 //! |---|---|---|---|
 //! | `tick` | SysTick (default 1 kHz) | 3 (highest) | next setpoint from the ring to the step/dir outputs |
-//! | `link_rx` | USART1 receive | 2 | frames → commands (credit-checked), hold/resume/override requests, status |
-//! | `idle` | background | 0 | scheduler (lookahead, fuzzy feed), velocity planner, ticks generated ahead into the ring, transmit, stack probe |
+//! | `link_rx` | USART1 receive | 2 | frames → commands (credit-checked), hold/resume/override requests, force samples, status |
+//! | `idle` | background | 0 | force loop (Njiri et al.: a force sample → feed override), scheduler (lookahead, fuzzy feed), velocity planner, ticks generated ahead into the ring, transmit, stack probe |
 //!
 //! Queues (`ring`, lock-free): commands link → idle (its free room
 //! is the host's credit), setpoints idle → tick (the planner runs up to
@@ -28,8 +28,8 @@ mod app {
     };
     use fuzzy_firmware::measure::{self, StackProbe};
     use fuzzy_firmware::motion::{
-        config_from_link, new_plan, point_from_link, Cmd, Controls, Executor, Feeder, Output, Plan,
-        PlanInput, Planner, Setpoint,
+        config_from_link, force_from_link, new_plan, point_from_link, Cmd, Controls, Executor,
+        Feeder, ForceLoop, Output, Plan, PlanInput, Planner, Setpoint,
     };
     use fuzzy_firmware::ring::{Consumer, Producer, Ring};
     use fuzzy_firmware::stepper::Axes;
@@ -280,6 +280,13 @@ mod app {
                 defmt::info!("feed override {=u16} %", percent);
                 return Ok(ack(sh));
             }
+            HostMsg::Force { fx_n_q16, fy_n_q16 } => {
+                let Some(f) = force_from_link(fx_n_q16, fy_n_q16) else {
+                    return Err(ErrorCode::OutOfRange);
+                };
+                sh.controls.lock(|c| c.force = Some(f));
+                return Ok(ack(sh));
+            }
             HostMsg::StartPath {
                 seq,
                 f_max_mm_per_min,
@@ -370,6 +377,11 @@ mod app {
         let (feeder, planner) = (local.feeder, local.planner);
         let mut taken_since_ack = 0u32;
         let mut last_info = IdleInfo::default();
+        // Njiri et al.'s force loop: small, so on this stack, not static.
+        let Ok(mut force_loop) = ForceLoop::new() else {
+            defmt::error!("bad force loop settings");
+            fuzzy_firmware::fail()
+        };
         loop {
             let mut busy = false;
 
@@ -388,10 +400,11 @@ mod app {
             // IDLE_RESERVE bytes to idle, so a report always fits).
             let room = sh.tx.lock(|tx| tx.capacity() - tx.len() >= IDLE_RESERVE);
 
-            // 2. Hold, resume, override (they reach the tool after the
-            //    setpoints already in the ring).
+            // 2. Hold, resume, override, force samples (they reach the
+            //    tool after the setpoints already in the ring).
             if room {
-                let c = sh.controls.lock(core::mem::take);
+                let mut c = sh.controls.lock(core::mem::take);
+                force_loop.apply(&mut c);
                 if c != Controls::default() {
                     for input in planner.apply(c).into_iter().flatten() {
                         report(&mut sh, input);

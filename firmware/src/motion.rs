@@ -24,9 +24,10 @@ use core::mem::MaybeUninit;
 
 use crate::ring::{Consumer, Producer};
 use fixed::types::I32F32;
+use fuzzy_core::njiri::{self, ForceN, ForceOverride, NjiriCompact, OverrideConfig, OverrideError};
 use fuzzy_core::planner::{Motion, MotionError, MotionPoint, MotionState, Tick};
 use fuzzy_core::scheduler::{PathPoint, ScheduledPoint, SchedulerConfig, SchedulerError};
-use fuzzy_core::units::{FeedMmPerMin, Point3Mm};
+use fuzzy_core::units::{FeedMmPerMin, Fx, Point3Mm};
 
 use crate::config::{MOTION_CONFIG, PLANNER_POINTS, SCHED_CONFIG};
 use crate::replay;
@@ -93,7 +94,7 @@ impl Feeder {
     /// A feeder with the default settings.
     pub fn new() -> Result<Self, SchedulerError> {
         Ok(Feeder {
-            sched: Sched::new(&fuzzy_core::lin2021::CONTROLLER, SCHED_CONFIG)?,
+            sched: Sched::new(&fuzzy_core::lin2021::COMPACT, SCHED_CONFIG)?,
             draining: false,
             after_drain: None,
         })
@@ -161,14 +162,56 @@ impl Feeder {
     }
 }
 
-/// Feed hold, resume and override requests from the link, taken by the
-/// background at its next pass.
+/// Feed hold, resume and override requests and force samples from the
+/// link, taken by the background at its next pass.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Controls {
     /// `Some(true)`: hold; `Some(false)`: resume.
     pub hold: Option<bool>,
     /// New feed override, percent (already range-checked).
     pub override_percent: Option<u16>,
+    /// Peak forces `[F_x, F_y]` of the last revolution (non-negative,
+    /// checked); a sample not yet taken is replaced by the next one.
+    pub force: Option<[ForceN; 2]>,
+}
+
+/// Njiri et al.'s force-feedback override (`fuzzy_core::njiri`) as the
+/// firmware runs it: the paper's settings ([`OverrideConfig::PAPER`]) on
+/// the compact controller ([`njiri::COMPACT`], same outputs as the host's),
+/// one step per force sample; its output replaces the feed override.
+/// Under 100 bytes: it lives on the background's stack.
+pub struct ForceLoop(ForceOverride<'static, NjiriCompact>);
+
+impl ForceLoop {
+    /// At 100 %, no history.
+    pub fn new() -> Result<Self, OverrideError> {
+        ForceOverride::new(&njiri::COMPACT, OverrideConfig::PAPER).map(ForceLoop)
+    }
+
+    /// If `c` carries a force sample, step the controller and put its
+    /// override, rounded to a percent and at least
+    /// [`link::OVERRIDE_MIN_PERCENT`], in `c.override_percent` (it wins
+    /// over a manual override taken in the same pass).
+    pub fn apply(&mut self, c: &mut Controls) {
+        if let Some(peak) = c.force.take() {
+            let pct = self.0.step(peak).0.to_bits();
+            // 0-150 % in Q16.16: rounded, within the planner's range.
+            let p = ((pct.max(0) as u32 + 0x8000) >> 16) as u16;
+            c.override_percent =
+                Some(p.clamp(link::OVERRIDE_MIN_PERCENT, link::OVERRIDE_MAX_PERCENT));
+        }
+    }
+}
+
+/// A force sample from the link's raw fields (newtons, Q16.16 bits), if
+/// both are magnitudes (non-negative).
+pub fn force_from_link(fx_n_q16: i32, fy_n_q16: i32) -> Option<[ForceN; 2]> {
+    (fx_n_q16 >= 0 && fy_n_q16 >= 0).then(|| {
+        [
+            ForceN(Fx::from_bits(fx_n_q16)),
+            ForceN(Fx::from_bits(fy_n_q16)),
+        ]
+    })
 }
 
 /// One tick's commanded motion, from the planner to the tick interrupt

@@ -16,7 +16,7 @@
 //! hold, feed override changes and a starved stretch (no pushes) happen at
 //! fixed ticks on the way.
 
-use fuzzy_core::lin2021::{Lin2021Controller, CONTROLLER};
+use fuzzy_core::lin2021::{Lin2021Compact, COMPACT};
 use fuzzy_core::planner::{Motion, MotionError, MotionPoint, MotionState, Tick};
 use fuzzy_core::scheduler::{
     PathPoint, ScheduledPoint, Scheduler, SchedulerConfig, SchedulerError,
@@ -26,7 +26,7 @@ use fuzzy_core::units::Point3Mm;
 use super::config::{AVG, SCHED_CAP, WS};
 
 /// The scheduler as configured for the firmware.
-pub type Sched = Scheduler<&'static Lin2021Controller, WS, AVG, SCHED_CAP>;
+pub type Sched = Scheduler<&'static Lin2021Compact, WS, AVG, SCHED_CAP>;
 
 /// Spacing of [`line`]'s points: 0.05 mm (I32F32 bits, rounded to nearest).
 pub const LINE_STEP_BITS: i64 = 214_748_365;
@@ -293,7 +293,7 @@ pub fn run<const N: usize, C: Clock>(
     clock: &mut C,
     on_tick: impl FnMut(&Motion<N>, &Tick),
 ) -> Result<Report, ReplayError> {
-    let mut sched = Sched::new(&CONTROLLER, config).map_err(ReplayError::Scheduler)?;
+    let mut sched = Sched::new(&COMPACT, config).map_err(ReplayError::Scheduler)?;
     motion.restart().map_err(ReplayError::Motion)?;
     motion.set_hold(false);
     motion.set_override(100);

@@ -52,8 +52,8 @@
 
 use crate::fixmath::div_u64_u32;
 use crate::fuzzy::{
-    AndMethod, Controller, Implication, Inference, MembershipFn, OrMethod, Rule, SystemDef, Term,
-    Variable,
+    AndMethod, Controller, ExactController, Implication, Inference, MembershipFn, OrMethod, Rule,
+    SystemDef, Term, Variable,
 };
 use crate::units::{CurvaturePerMm, Fx};
 use fixed::types::I32F32;
@@ -227,6 +227,20 @@ pub static CONTROLLER: Lin2021Controller = match Controller::new(&SYSTEM) {
     Err(_) => panic!("lin2021::SYSTEM is invalid"),
 };
 
+/// The controller as a firmware holds it: [`SYSTEM`] always takes the
+/// engine's fast path (a complete rule grid with min AND, inputs
+/// partitions, the output a chain: exact centroid), so the 2.8 KiB sampled
+/// output table, the 404-byte scratch and the general inference path are
+/// left out ([`ExactController`]). Same outputs as [`CONTROLLER`], bit for
+/// bit (tested); not for [`Controller::evaluate_sampled`] (Octave checks).
+pub type Lin2021Compact = ExactController<'static, 2, 6, 7>;
+
+/// [`Lin2021Compact`] built at compile time.
+pub static COMPACT: Lin2021Compact = match ExactController::new(&SYSTEM) {
+    Ok(c) => c,
+    Err(_) => panic!("lin2021::SYSTEM is invalid"),
+};
+
 /// How the curvature variation Dκ is normalised to the controller's `[0, 1]`
 /// (section 2.7.1 A: "normalized to the interval [0, 1] based on the maximum
 /// and minimum values … if the curvature variation remains greater than 3,
@@ -300,6 +314,21 @@ impl VariationScale {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The firmware's compact build infers exactly like [`CONTROLLER`].
+    #[test]
+    fn compact_controller_is_bit_for_bit_the_same() {
+        assert!(COMPACT.is_exact());
+        for i in -10..=340 {
+            for j in -10..=130 {
+                let x = [
+                    Fx::from_num(i) / 100,
+                    Fx::from_num(j) / 100 + Fx::from_bits(i * 7),
+                ];
+                assert_eq!(COMPACT.evaluate(x), CONTROLLER.evaluate(x), "{x:?}");
+            }
+        }
+    }
 
     fn feed(k: f64, dk_norm: f64) -> f64 {
         CONTROLLER

@@ -71,8 +71,8 @@
 //! samples): the paper controls *peak* cutting forces.
 
 use crate::fuzzy::{
-    AndMethod, Controller, Implication, Inference, MembershipFn, OrMethod, Rule, Scratch,
-    SystemDef, Term, Variable,
+    AndMethod, Controller, ExactController, FuzzyInference, Implication, Inference, MembershipFn,
+    OrMethod, Rule, SystemDef, Term, Variable,
 };
 use crate::units::Fx;
 
@@ -208,6 +208,20 @@ pub type NjiriController = Controller<'static, 4, 3, 5>;
 
 /// The compiled controller, built at compile time.
 pub static CONTROLLER: NjiriController = match Controller::new(&SYSTEM) {
+    Ok(c) => c,
+    Err(_) => panic!("njiri::SYSTEM is invalid"),
+};
+
+/// The controller as a firmware holds it ([`COMPACT`]): [`SYSTEM`] always
+/// takes the engine's fast path (a complete rule grid with min AND, inputs
+/// partitions, the output a chain: exact centroid), so the sampled table
+/// and scratch are left out ([`ExactController`]); up to 7 output terms (5
+/// used), so that the centroid code is the one [`crate::lin2021::COMPACT`]
+/// uses. Same outputs as [`CONTROLLER`], bit for bit (tested).
+pub type NjiriCompact = ExactController<'static, 4, 3, 7>;
+
+/// [`NjiriCompact`] built at compile time.
+pub static COMPACT: NjiriCompact = match ExactController::new(&SYSTEM) {
     Ok(c) => c,
     Err(_) => panic!("njiri::SYSTEM is invalid"),
 };
@@ -361,29 +375,27 @@ pub struct StepTrace {
 
 /// The closed-loop override: feed it the peak forces of each revolution,
 /// apply the returned override to the programmed feed. `no_std`, no
-/// allocation, no panics; about 0.5 KiB (mostly the centroid scratch).
+/// allocation, no panics; about 0.5 KiB on [`CONTROLLER`] (mostly the
+/// centroid scratch), under 100 bytes on [`COMPACT`].
 #[derive(Clone, Debug)]
-pub struct ForceOverride<'c> {
-    controller: &'c NjiriController,
+pub struct ForceOverride<'c, C: FuzzyInference<4> = NjiriController> {
+    controller: &'c C,
     config: OverrideConfig,
-    scratch: Scratch<101>,
+    scratch: C::Scratch,
     previous_error: Option<[Fx; 2]>,
     override_pct: OverridePct,
     last: StepTrace,
 }
 
-impl<'c> ForceOverride<'c> {
+impl<'c, C: FuzzyInference<4>> ForceOverride<'c, C> {
     /// A controller with `config` (checked) on `controller` (normally
-    /// [`CONTROLLER`]).
-    pub fn new(
-        controller: &'c NjiriController,
-        config: OverrideConfig,
-    ) -> Result<Self, OverrideError> {
+    /// [`CONTROLLER`], or [`COMPACT`] in a firmware).
+    pub fn new(controller: &'c C, config: OverrideConfig) -> Result<Self, OverrideError> {
         config.validate()?;
         Ok(ForceOverride {
             controller,
             config,
-            scratch: Scratch::new(),
+            scratch: C::Scratch::default(),
             previous_error: None,
             override_pct: config.initial,
             last: StepTrace::default(),
@@ -431,7 +443,7 @@ impl<'c> ForceOverride<'c> {
         let inputs = [e[0], de[0], e[1], de[1]];
         let frpo = self
             .controller
-            .evaluate_with(&mut self.scratch, inputs)
+            .infer(&mut self.scratch, inputs)
             .output
             .clamp(OverridePct::MIN.0, OverridePct::MAX.0);
         let next = match self.config.law {
@@ -618,6 +630,37 @@ mod tests {
         assert_eq!(c.override_pct(), OverridePct::MAX);
         c.reset();
         assert_eq!(c.override_pct(), OverridePct::PROGRAMMED);
+    }
+
+    /// The firmware's compact build infers exactly like [`CONTROLLER`], and
+    /// the override loop on it steps through the same values.
+    #[test]
+    fn compact_controller_is_bit_for_bit_the_same() {
+        assert!(COMPACT.is_exact());
+        let xs = [
+            -2.0, -1.5, -1.1, -0.75, -0.3, 0.0, 0.2, 0.6, 1.0, 1.4, 1.5, 3.0,
+        ];
+        for a in xs {
+            for b in xs {
+                for c in xs {
+                    for d in [-1.5, -0.4, 0.0, 0.9, 1.5] {
+                        let x = [a, b, c, d].map(Fx::from_num);
+                        let want = CONTROLLER.evaluate(x);
+                        assert_eq!(COMPACT.infer(&mut (), x), want, "{x:?}");
+                    }
+                }
+            }
+        }
+        let mut big = ForceOverride::new(&CONTROLLER, OverrideConfig::PAPER).unwrap();
+        let mut small = ForceOverride::new(&COMPACT, OverrideConfig::PAPER).unwrap();
+        assert!(core::mem::size_of_val(&small) < 100);
+        for k in 0..300 {
+            let f = [
+                ForceN::from_f64(100.0 + (k % 37) as f64 * 1.3),
+                ForceN::from_f64(35.0 + (k % 11) as f64 * 0.9),
+            ];
+            assert_eq!(big.step(f), small.step(f), "step {k}");
+        }
     }
 
     #[test]

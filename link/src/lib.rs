@@ -88,6 +88,25 @@ pub enum HostMsg {
         /// Percent.
         percent: u16,
     },
+    /// Measured peak cutting forces of the last spindle revolution (a
+    /// dynamometer's), immediate: one step of Njiri et al.'s force-feedback
+    /// controller (`fuzzy_core::njiri::ForceOverride`, the paper's
+    /// references 120 N and 40 N and incremental law,
+    /// `OverrideConfig::PAPER`), whose output becomes the feed override as
+    /// if sent by [`HostMsg::Override`] (rounded to a percent, at least
+    /// [`OVERRIDE_MIN_PERCENT`]; the controller's range is 0-150 %). Forces
+    /// above the references lower the feed, below raise it. The loop
+    /// keeps its own override: a manual [`HostMsg::Override`] lasts until
+    /// the next force sample. Both values are magnitudes, newtons in
+    /// Q16.16 bits (value × 65 536, up to 32 767 N); a negative one is
+    /// refused ([`ErrorCode::OutOfRange`]). (Appended last: older
+    /// messages keep their encoding.)
+    Force {
+        /// Peak |F_x|, N, Q16.16 bits.
+        fx_n_q16: i32,
+        /// Peak |F_y|, N, Q16.16 bits.
+        fy_n_q16: i32,
+    },
 }
 
 /// Smallest feed override, percent.
@@ -195,7 +214,7 @@ pub enum ErrorCode {
     UnknownMessage,
     /// A known message with missing or malformed fields.
     Malformed,
-    /// A value out of range (coordinate, feed, override percent).
+    /// A value out of range (coordinate, feed, override percent, force).
     OutOfRange,
     /// Not the sequence number expected ([`DeviceMsg::Error::expected_seq`]).
     OutOfSequence,
@@ -431,6 +450,10 @@ mod tests {
             feed_cap_mm_per_min: Some(i64::MAX),
         });
         roundtrip(HostMsg::Override { percent: 200 });
+        roundtrip(HostMsg::Force {
+            fx_n_q16: i32::MAX,
+            fy_n_q16: i32::MIN,
+        });
         roundtrip(HostMsg::StartPath {
             seq: 7,
             f_max_mm_per_min: 3000 << 32,

@@ -7,7 +7,8 @@
 //!   ends exactly on the last point;
 //! - underrun: a path that stops arriving ends in a stop within the
 //!   acceleration, at the last scheduled point, and resumes without a jump;
-//! - feed hold and resume; feed override; corrupted frames;
+//! - feed hold and resume; feed override; Njiri et al.'s force loop fed
+//!   force samples over the link; corrupted frames;
 //! - in every test, the planned motion: the firmware reports every input
 //!   of its velocity planner with its tick and a checksum of its
 //!   setpoints; the host replays the same inputs into its own planner
@@ -426,6 +427,105 @@ fn feed_override_scales_the_feed() {
     let (_, p) = verify("override", &mut fw, &paths, 0);
     assert!(p.feed_max <= fw.feed_max as f64 + 1e-6);
     println!("override: 100 % -> 50 % (1500 mm/min) -> 200 % (capped at 5000 mm/min); 5 % and 201 % refused");
+}
+
+/// Njiri et al.'s force-feedback override in the firmware
+/// (`HostMsg::Force`, `fuzzy_core::njiri`, the paper's references 120 N
+/// and 40 N): peak forces at the references leave the override at 100 %;
+/// above them every sample lowers it (and the feed follows); back at the
+/// references it settles (one step up on the falling force, then holds);
+/// a negative force is refused. The planner takes each change as an
+/// override, so the host's replay and the limit checks still hold.
+#[test]
+fn force_samples_drive_the_feed_override() {
+    if !qemu_available() {
+        return;
+    }
+    let q16 = |n: f64| (n * 65536.0).round() as i32;
+    let force = |fx: f64, fy: f64| HostMsg::Force {
+        fx_n_q16: q16(fx),
+        fy_n_q16: q16(fy),
+    };
+    let pts = line(900, 0.5);
+    let mut fw = Firmware::start("force");
+    let paths = [Sent::stream(&mut fw, config(), &pts)];
+    fw.end_path();
+    let near = |f: f64| move |s: &Status| (feed(s) - f).abs() < f * 1e-3;
+    let mut seen = fw.poll_until(
+        Duration::from_millis(10),
+        Duration::from_secs(120),
+        near(3000.0),
+    );
+    let full = feed(seen.last().unwrap());
+    // Let idle take every sample sent so far (samples are not queued: a
+    // sample replaces one not yet taken), streaming meanwhile.
+    let settle = |fw: &mut Firmware| {
+        let until = std::time::Instant::now() + Duration::from_millis(150);
+        fw.poll_until(Duration::from_millis(20), Duration::from_secs(60), |_| {
+            std::time::Instant::now() >= until
+        })
+    };
+    // At the references: no change.
+    for _ in 0..5 {
+        fw.send(&force(120.0, 40.0));
+        seen.extend(settle(&mut fw));
+        assert_eq!(seen.last().unwrap().override_percent, 100);
+    }
+    // Above the references: each sample lowers the override.
+    let mut last = 100;
+    for k in 0..8 {
+        fw.send(&force(150.0, 50.0));
+        seen.extend(
+            fw.poll_until(Duration::from_millis(5), Duration::from_secs(60), |s| {
+                s.override_percent < last
+            }),
+        );
+        let now = seen.last().unwrap().override_percent;
+        assert!(
+            now < last && now + 5 >= last,
+            "sample {k}: {last} % -> {now} %"
+        );
+        last = now;
+    }
+    assert!(last <= 90, "{last} %");
+    // The feed follows (the programmed feed × override, within 0.2 %).
+    let want = full * last as f64 / 100.0;
+    seen.extend(
+        fw.poll_until(Duration::from_millis(5), Duration::from_secs(60), |s| {
+            (feed(s) - want).abs() < want * 2e-3
+        }),
+    );
+    // Back at the references: one step up on the falling force, then it
+    // holds.
+    fw.send(&force(120.0, 40.0));
+    seen.extend(settle(&mut fw));
+    let back = seen.last().unwrap().override_percent;
+    assert!(back >= last && back < 100, "{last} % -> {back} %");
+    for _ in 0..5 {
+        fw.send(&force(120.0, 40.0));
+        seen.extend(settle(&mut fw));
+        assert_eq!(seen.last().unwrap().override_percent, back);
+    }
+    // A negative force: refused, nothing changes.
+    let errors = fw.errors.len();
+    fw.send(&HostMsg::Force {
+        fx_n_q16: -1,
+        fy_n_q16: q16(40.0),
+    });
+    let s = fw.status();
+    assert_eq!(s.override_percent, back);
+    assert_eq!(
+        fw.errors[errors..].iter().map(|e| e.0).collect::<Vec<_>>(),
+        vec![ErrorCode::OutOfRange]
+    );
+    seen.push(s);
+    check_smooth(&seen, fw.hello, fw.feed_max as f64);
+    let end = fw.poll_until(Duration::from_millis(20), Duration::from_secs(120), |s| {
+        s.motion == Motion::Idle
+    });
+    assert_eq!(end.last().unwrap().pos_mm, pts.last().unwrap().to_bits());
+    verify("force", &mut fw, &paths, 0);
+    println!("force: at the references 100 %; 8 samples above (150 N, 50 N) -> {last} %; back at the references {back} %, held; a negative force refused");
 }
 
 /// A 100 mm line of 0.05 mm segments streamed over the link at F_max 5000

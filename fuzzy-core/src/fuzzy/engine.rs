@@ -391,6 +391,15 @@ impl<'a, const NI: usize, const NT: usize, const NO: usize, const S: usize>
         self.infer_impl(&mut Scratch::new(), inputs, true)
     }
 
+    /// The inference of [`Self::evaluate`] when it takes its fast path
+    /// (rules a complete grid with min AND, every input a partition, the
+    /// output a chain with min implication: the exact centroid), else
+    /// `None`. Bit for bit [`Self::evaluate`]'s result, without the code of
+    /// the general path: for a firmware whose controller always qualifies.
+    pub fn evaluate_exact(&self, inputs: [Fx; NI]) -> Option<Evaluation> {
+        self.fast_path().then(|| self.infer_partition_grid(inputs))
+    }
+
     /// Whether the exact closed-form centroid is used (chain of
     /// triangles/trapezoids, min implication).
     pub fn has_exact_centroid(&self) -> bool {
@@ -739,6 +748,61 @@ impl<const NI: usize, const NT: usize, const NO: usize, const S: usize> FuzzyInf
     type Scratch = Scratch<S>;
     fn infer(&self, scratch: &mut Scratch<S>, inputs: [Fx; NI]) -> Evaluation {
         self.evaluate_with(scratch, inputs)
+    }
+}
+
+/// A controller for a firmware, when its system always takes
+/// [`Controller::evaluate`]'s fast path (rules a complete grid with min AND,
+/// every input a partition of triangles/trapezoids, the output a chain
+/// with min implication: the exact closed-form centroid, as for
+/// `lin2021::SYSTEM` and `njiri::SYSTEM`). The sampled output table (`NO` ×
+/// 101 samples, 2-3 KiB of flash) and the centroid scratch (404 bytes of RAM
+/// per user) serve only [`Controller::evaluate_sampled`] and the general
+/// path, so here they have 2 samples and inference calls only
+/// [`Controller::evaluate_exact`]: same outputs as the full controller, bit
+/// for bit, without the general path's code. Were the fast path not to
+/// apply ([`Self::is_exact`] says; the users test it), every output would
+/// be the default output.
+#[derive(Clone, Debug)]
+pub struct ExactController<'a, const NI: usize, const NT: usize, const NO: usize>(
+    Controller<'a, NI, NT, NO, 2>,
+);
+
+impl<'a, const NI: usize, const NT: usize, const NO: usize> ExactController<'a, NI, NT, NO> {
+    /// Validate `def` and compile it.
+    pub const fn new(def: &'a SystemDef<'a, NI>) -> Result<Self, ConfigError> {
+        match Controller::new(def) {
+            Ok(c) => Ok(ExactController(c)),
+            Err(e) => Err(e),
+        }
+    }
+
+    /// The compiled controller (2 centroid samples).
+    pub const fn controller(&self) -> &Controller<'a, NI, NT, NO, 2> {
+        &self.0
+    }
+
+    /// Whether the fast path applies (else every output is the default).
+    pub fn is_exact(&self) -> bool {
+        self.0.fast_path()
+    }
+
+    /// One inference (inputs clamped to their universes).
+    pub fn evaluate(&self, inputs: [Fx; NI]) -> Evaluation {
+        self.0.evaluate_exact(inputs).unwrap_or(Evaluation {
+            output: self.0.def.default_output,
+            fired: false,
+            strength: Fx::ZERO,
+        })
+    }
+}
+
+impl<const NI: usize, const NT: usize, const NO: usize> FuzzyInference<NI>
+    for ExactController<'_, NI, NT, NO>
+{
+    type Scratch = ();
+    fn infer(&self, _: &mut (), inputs: [Fx; NI]) -> Evaluation {
+        self.evaluate(inputs)
     }
 }
 

@@ -111,16 +111,35 @@ pub(crate) struct Limits {
 }
 
 /// `value × tick_us^k / (den · 10^(6k))` in Q32, for converting to per-tick
-/// units.
-fn per_tick(value_q32: i128, tick_us: u32, k: u32, den: i128) -> i64 {
-    let mut num = value_q32;
-    let mut d = den;
+/// units, in `u64` (this runs once, at start-up, but an `i128` division
+/// costs 2 KiB of flash on a Cortex-M4).
+///
+/// Each of the `k` factors `tick_us / 10^6` is applied exactly rounded down
+/// (`x = q·10^6 + r`: `x·t/10^6 = q·t + ⌊r·t/10^6⌋`), then `den`. The result is
+/// ⌊value·t^k/(den·10^(6k))⌋ itself when `k = 1` or when `t` divides 10^6
+/// (every tick rate of whole kHz fractions, the default 1000 µs included),
+/// and otherwise at most one quantum below it: each rounding loses less
+/// than one quantum, scaled down by `t/10^6 ≤ 0.1` at each later step.
+/// Saturates at `i64::MAX`.
+fn per_tick(value_q32: u64, tick_us: u32, k: u32, den: u64) -> i64 {
+    const MICRO: u64 = 1_000_000;
+    let t = tick_us as u64;
+    let mut x = value_q32;
     for _ in 0..k {
-        num = num.saturating_mul(tick_us as i128);
-        d = d.saturating_mul(1_000_000);
+        let (q, r) = (x / MICRO, x % MICRO);
+        x = q.saturating_mul(t).saturating_add(r * t / MICRO);
     }
-    num.checked_div(d)
-        .map_or(0, |q| q.clamp(0, i64::MAX as i128) as i64)
+    let q = x.checked_div(den).unwrap_or(0);
+    q.min(i64::MAX as u64) as i64
+}
+
+/// `⌊2^48 · tick_us / 60e6⌋` (exact) in `u64`: `2^48·t` needs 66 bits, so
+/// the quotient is taken in two 16- and 32-bit steps.
+fn feed_to_tick_q48(tick_us: u32) -> i64 {
+    const D: u64 = 60_000_000;
+    let n = (tick_us as u64) << 32;
+    let (q, r) = (n / D, n % D);
+    ((q << 16) + (r << 16) / D) as i64
 }
 
 impl MotionConfig {
@@ -154,8 +173,9 @@ impl MotionConfig {
         }
         let t = self.tick_us;
         // mm/min → mm/tick: × tick_us / 60e6.
-        let speed = |f: FeedMmPerMin| per_tick(f.0.to_bits() as i128, t, 1, 60);
-        let accel = |a: u32| per_tick((a as i128) << 32, t, 2, 1);
+        // (Feeds are positive here: checked above.)
+        let speed = |f: FeedMmPerMin| per_tick(f.0.to_bits().max(0) as u64, t, 1, 60);
+        let accel = |a: u32| per_tick((a as u64) << 32, t, 2, 1);
         let a_min = self.axis_accel_max_mm_s2.iter().copied().min().unwrap_or(1);
         let tangential = ((accel(a_min) as i128 * share as i128) >> 16) as i64;
         let corner = self
@@ -164,7 +184,7 @@ impl MotionConfig {
         // Even (rounded down), so that a tick at full jerk changes the speed
         // by exactly J/2: an odd J would lose half a quantum of speed per
         // tick, and a long stop ramp would drift below v = a²/2J.
-        let jerk = per_tick((self.jerk_max_mm_s3 as i128) << 32, t, 3, 1) & !1;
+        let jerk = per_tick((self.jerk_max_mm_s3 as u64) << 32, t, 3, 1) & !1;
         let feed_max = speed(self.feed_max);
         if tangential <= 0 || jerk <= 0 || feed_max <= 0 {
             return Err(ConfigError::Limit);
@@ -190,8 +210,8 @@ impl MotionConfig {
             chord,
             reach: feed_max * 5 / 2,
             creep: (jerk.min(tangential) / 2).max(1),
-            feed_to_tick_q48: ((t as i128) << 48).div_euclid(60_000_000) as i64,
-            tick_to_feed_q16: ((60_000_000i128 << 16) / t as i128) as i64,
+            feed_to_tick_q48: feed_to_tick_q48(t),
+            tick_to_feed_q16: ((60_000_000u64 << 16) / t as u64) as i64,
             tick_us: t,
         })
     }
@@ -210,6 +230,53 @@ mod tests {
         assert!((f(l.jerk) - 50_000.0 * 1e-9).abs() < 1e-9);
         assert!((f(l.corner_accel[0]) - 1000.0 * 1e-6).abs() < 1e-9);
         assert!(l.creep > 0);
+    }
+
+    /// The `u64` conversions against the exact `i128` quotients: equal for
+    /// `k = 1` and for tick periods dividing 1 s, within one quantum below
+    /// otherwise.
+    #[test]
+    fn per_tick_matches_the_exact_quotient() {
+        let exact = |v: u64, t: u32, k: u32, den: u64| -> i64 {
+            let (mut n, mut d) = (v as i128, den as i128);
+            for _ in 0..k {
+                n *= t as i128;
+                d *= 1_000_000;
+            }
+            (n / d).clamp(0, i64::MAX as i128) as i64
+        };
+        let values = [
+            1u64,
+            59,
+            4_294_967,
+            3000 << 32,
+            (5000u64 << 32) + 12_345,
+            1_000_000 << 32,
+            (1u64 << 63) + 977,
+            u32::MAX as u64 * (1 << 32),
+        ];
+        for t in [
+            50, 125, 250, 333, 500, 999, 1000, 1024, 2000, 4096, 77_777, 100_000,
+        ] {
+            assert_eq!(
+                feed_to_tick_q48(t) as i128,
+                ((t as i128) << 48) / 60_000_000
+            );
+            for &v in &values {
+                for (k, den) in [(1, 60), (1, 1), (2, 1), (3, 1)] {
+                    let got = per_tick(v, t, k, den);
+                    let want = exact(v, t, k, den);
+                    if k == 1 || 1_000_000 % t == 0 {
+                        assert_eq!(got, want, "v {v} t {t} k {k}");
+                    } else {
+                        assert!(
+                            got <= want && got >= want - 1,
+                            "v {v} t {t} k {k}: {got} vs {want}"
+                        );
+                    }
+                }
+            }
+        }
     }
 
     #[test]
