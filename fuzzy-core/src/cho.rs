@@ -127,17 +127,8 @@ pub const RULES_PRINTED: [Rule<2>; 8] = {
 /// the seventeen we chose.
 pub const RULES: [Rule<2>; 25] = {
     use terms::*;
-    [
-        // Printed.
-        r(PS, PS, PS),
-        r(ZO, PS, PB),
-        r(NS, PS, PB),
-        r(PB, ZO, NS),
-        r(NB, ZO, NS),
-        r(PS, NS, PB),
-        r(ZO, NS, PB),
-        r(NS, NS, PS),
-        // Completed: Δε = PB.
+    let chosen = [
+        // Δε = PB.
         r(PB, PB, NB),
         r(PS, PB, ZO),
         r(ZO, PB, PS),
@@ -157,7 +148,18 @@ pub const RULES: [Rule<2>; 25] = {
         r(ZO, NB, PS),
         r(NS, NB, ZO),
         r(NB, NB, NB),
-    ]
+    ];
+    let mut all = [RULES_PRINTED[0]; 25];
+    let mut i = 0;
+    while i < all.len() {
+        all[i] = if i < RULES_PRINTED.len() {
+            RULES_PRINTED[i]
+        } else {
+            chosen[i - RULES_PRINTED.len()]
+        };
+        i += 1;
+    }
+    all
 };
 
 const fn system(name: &'static str, rules: &'static [Rule<2>]) -> SystemDef<'static, 2> {

@@ -101,6 +101,10 @@ pub(crate) struct Limits {
     /// faster, the final deceleration is at most `J·Ts` and `A`, so stopping
     /// is jerk- and acceleration-limited (at long ticks `J·Ts` can exceed `A`).
     pub creep: i64,
+    /// The least speed through a corner (`Motion::finalize`): the creep
+    /// speed, but no faster than a reversal (`Σ|Δd_a| = 2`) allows within
+    /// the corner share `(1 − ρ)·A_a` of every axis.
+    pub corner_creep: i64,
     /// mm/min (raw I32F32) → mm/tick (Q32): `× tick_us / 60e6`, as a Q48
     /// factor (a multiplication instead of a 128-bit division per point).
     pub feed_to_tick_q48: i64,
@@ -210,6 +214,9 @@ impl MotionConfig {
             chord,
             reach: feed_max * 5 / 2,
             creep: (jerk.min(tangential) / 2).max(1),
+            corner_creep: (jerk.min(tangential) / 2)
+                .min(corner.iter().copied().min().unwrap_or(0) / 2)
+                .max(1),
             feed_to_tick_q48: feed_to_tick_q48(t),
             tick_to_feed_q16: ((60_000_000u64 << 16) / t as u64) as i64,
             tick_us: t,

@@ -446,7 +446,7 @@ impl<const N: usize> Motion<N> {
                     .get(i)
                     .map_or(0, |n| ld(n.ceil))
                     .min(self.turn_limit(i))
-                    .max(self.corner_creep())
+                    .max(self.lim.corner_creep)
             };
             if let Some(n) = self.nodes.get_mut(i) {
                 n.ceil = st(ceil);
@@ -460,14 +460,6 @@ impl<const N: usize> Motion<N> {
             self.finalized = i + 1;
             self.extend_envelope(i);
         }
-    }
-
-    /// The least speed through a corner, so that the tool never stalls on
-    /// one: the creep speed, but no faster than a reversal (`Σ|Δd_a| = 2`)
-    /// allows within the corner share `(1 − ρ)·A_a` of every axis.
-    fn corner_creep(&self) -> i64 {
-        let c = self.lim.corner_accel.iter().copied().min().unwrap_or(0);
-        self.lim.creep.min(c / 2).max(1)
     }
 
     /// The largest speed at node `i` for which the direction changes near it

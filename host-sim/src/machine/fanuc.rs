@@ -134,14 +134,7 @@ impl FanucConfig {
             }
         };
         let actual = accdec::filter(self.after_interpolation, &commanded.pos, ts_s, t_after_s);
-        let mut commanded = commanded.pos;
-        let end = commanded[commanded.len() - 1];
-        commanded.resize(actual.len().max(commanded.len()), end);
-        Motion {
-            ts_s,
-            commanded,
-            actual,
-        }
+        Motion::padded(ts_s, commanded.pos, actual)
     }
 }
 

@@ -25,6 +25,19 @@ pub struct Motion {
 }
 
 impl Motion {
+    /// A run's motion: the commanded positions held at their last point
+    /// while the machine settles, so both series have the same length.
+    pub fn padded(ts_s: f64, mut commanded: Vec<[f64; 3]>, actual: Vec<[f64; 3]>) -> Motion {
+        if let Some(&end) = commanded.last() {
+            commanded.resize(actual.len().max(commanded.len()), end);
+        }
+        Motion {
+            ts_s,
+            commanded,
+            actual,
+        }
+    }
+
     /// Time from the start until the tool has arrived at the end, s.
     pub fn cycle_time_s(&self) -> f64 {
         (self.actual.len().saturating_sub(1)) as f64 * self.ts_s

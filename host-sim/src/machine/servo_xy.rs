@@ -203,14 +203,7 @@ impl ServoXyConfig {
             );
         }
         let actual = self.track(&reference, ts_s);
-        let mut commanded = reference;
-        let end = commanded[commanded.len() - 1];
-        commanded.resize(actual.len().max(commanded.len()), end);
-        Motion {
-            ts_s,
-            commanded,
-            actual,
-        }
+        Motion::padded(ts_s, reference, actual)
     }
 
     /// The servo following reference positions sampled every `ts_s`.

@@ -62,14 +62,7 @@ pub fn follow(machine: &MachineConfig, commanded: Vec<[f64; 3]>, ts_s: f64) -> M
             }
         }
     };
-    let mut commanded = commanded;
-    let end = commanded[commanded.len() - 1];
-    commanded.resize(actual.len().max(commanded.len()), end);
-    Motion {
-        ts_s,
-        commanded,
-        actual,
-    }
+    Motion::padded(ts_s, commanded, actual)
 }
 
 /// Per-axis acceleration the simulated machine allows, mm/s² (`None`: no
