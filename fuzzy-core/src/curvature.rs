@@ -24,8 +24,10 @@
 //! I32F32, so differences are exact). Each difference is scaled by a power of
 //! two to 30 significant bits, so the cross and dot products are exact 64-bit
 //! products; chords up to 0.25 mm (2^30 units of 2^-32 mm) are not shifted at
-//! all. The few remaining products, one square root per length and one
-//! division use a 32-bit-mantissa integer soft float. Measured against the
+//! all. The few remaining products and two reciprocal square roots (one per
+//! chord length, `|d| = |d|²/sqrt(|d|²)`, and `κ = num/sqrt(num·den)` for
+//! `κ² = num/den`: no division) use a 32-bit-mantissa integer soft float.
+//! Measured against the
 //! f64 formula on the same points (`tests/curvature_accuracy.rs`): relative
 //! error below 1e-7 for chords up to 0.25 mm; longer chords lose the low bits
 //! of their small components, an absolute error below ~2^-28/chord 1/mm
@@ -54,6 +56,7 @@
 //!   scheduler gives them the curvature of their only neighbour
 //!   (one-sided estimate), see [`crate::scheduler`].
 
+use crate::fixmath::sar_i64_low;
 use crate::softfloat::Sf;
 use crate::units::{CurvaturePerMm, Point3Mm};
 
@@ -87,25 +90,34 @@ struct Scaled {
 impl Scaled {
     /// `None` for the zero vector.
     fn new(d: [i64; 3]) -> Option<Scaled> {
-        let m = d.iter().map(|c| c.unsigned_abs()).max().unwrap_or(0);
+        let m = d[0]
+            .unsigned_abs()
+            .max(d[1].unsigned_abs())
+            .max(d[2].unsigned_abs());
         if m == 0 {
             return None;
         }
         let shift = 64 - m.leading_zeros() as i32 - 30; // top bit lands on bit 29
-        let n = d.map(|c| {
-            if shift >= 0 {
-                (c >> shift) as i32
-            } else {
-                (c << -shift) as i32
-            }
-        });
+                                                        // 32-bit shifts only (a variable 64-bit shift is a library call on
+                                                        // the target): below 2^30 every component already fits an i32.
+        let n = if shift <= 0 {
+            let l = (-shift) as u32;
+            [(d[0] as i32) << l, (d[1] as i32) << l, (d[2] as i32) << l]
+        } else {
+            let r = shift as u32;
+            [
+                sar_i64_low(d[0], r),
+                sar_i64_low(d[1], r),
+                sar_i64_low(d[2], r),
+            ]
+        };
         Some(Scaled { n, shift })
     }
 
     /// Squared length in raw units².
     fn norm_sq(&self) -> Sf {
         let q: u64 = self.n.iter().map(|&c| (c as i64 * c as i64) as u64).sum();
-        Sf::from_u64(q).scale2(2 * self.shift)
+        Sf::from_u64_inline(q).scale2(2 * self.shift)
     }
 }
 
@@ -114,6 +126,9 @@ impl Scaled {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Chord {
     v: Scaled,
+    /// Squared length, raw units² (exact to 32 bits).
+    sq: Sf,
+    /// Length for the curvature: `sq / sqrt(sq)`, to ~2^-29 relative.
     len: Sf,
 }
 
@@ -132,15 +147,19 @@ impl Chord {
 
     fn from_diff(d: [i64; 3]) -> Option<Chord> {
         let v = Scaled::new(d)?;
+        // |d| = |d|² / sqrt(|d|²): a reciprocal root, cheaper than a root.
+        let sq = v.norm_sq();
         Some(Chord {
-            len: v.norm_sq().sqrt(),
+            len: sq.mul_inline(sq.rsqrt()?),
+            sq,
             v,
         })
     }
 
-    /// Length in mm (saturating at the I32F32 maximum).
+    /// Length in mm (saturating at the I32F32 maximum), from a correctly
+    /// rounded square root (so a 5 mm chord is 5 mm to the last bit).
     pub fn length_mm(&self) -> fixed::types::I32F32 {
-        fixed::types::I32F32::from_bits(self.len.to_i64_scaled(0))
+        fixed::types::I32F32::from_bits(self.sq.sqrt().to_i64_scaled(0))
     }
 }
 
@@ -170,20 +189,21 @@ fn diff_in_range(b: &Point3Mm, a: &Point3Mm) -> [i64; 3] {
 
 /// Squared norm of a vector of `i64` (the cross product).
 fn norm_sq_i64(c: [i64; 3]) -> Sf {
-    let m = c.iter().map(|x| x.unsigned_abs()).max().unwrap_or(0);
+    let m = c[0]
+        .unsigned_abs()
+        .max(c[1].unsigned_abs())
+        .max(c[2].unsigned_abs());
     if m == 0 {
         return Sf::ZERO;
     }
     // Scale so every component fits 31 bits: squares sum below 2^64.
     let shift = (64 - m.leading_zeros() as i32 - 31).max(0);
-    let q: u64 = c
-        .iter()
-        .map(|&x| {
-            let s = (x >> shift).unsigned_abs();
-            s * s
-        })
-        .sum();
-    Sf::from_u64(q).scale2(2 * shift)
+    let sq = |x: i64| {
+        let s = sar_i64_low(x, shift as u32).unsigned_abs() as u64;
+        s * s
+    };
+    let q = sq(c[0]) + sq(c[1]) + sq(c[2]);
+    Sf::from_u64_inline(q).scale2(2 * shift)
 }
 
 /// Magnitude of the curvature at `p2` of the path `p1 → p2 → p3`, in 1/mm
@@ -230,18 +250,23 @@ pub(crate) fn curvature_of_chords(
         None => return CurvaturePerMm::MAX, // back to the start point: reversal
     };
     // Work on κ²: squared norms need no square root, so the only roots are
-    // the new chord's length and the final one.
+    // the new chord's length and the final one (both reciprocal roots).
     let span = ta.add(tb);
-    let span_sq = span.mul(span);
-    let ta_tb = ta.mul(tb);
-    let ta_tb_sq = ta_tb.mul(ta_tb);
+    let span_sq = span.mul_inline(span);
+    let ta_tb = ta.mul_inline(tb);
+    let ta_tb_sq = ta_tb.mul_inline(ta_tb);
     // Eq. 9 in closed form, squared: 4|u×v|²(ta+tb)⁴ / (ta² tb² |p3−p1|⁶).
-    let num = cross_sq.mul(span_sq).mul(span_sq).scale2(2);
-    let den = ta_tb_sq.mul(c13_sq).mul(c13_sq).mul(c13_sq);
-    let mut k_sq = match num.div(den) {
-        Some(k) => k,
-        None => return CurvaturePerMm::MAX,
+    let num = cross_sq.mul_inline(span_sq).mul_inline(span_sq).scale2(2);
+    let den = ta_tb_sq
+        .mul_inline(c13_sq)
+        .mul_inline(c13_sq)
+        .mul_inline(c13_sq);
+    // κ = sqrt(num/den) = num / sqrt(num·den): one reciprocal square root
+    // and no division (den = 0 only by exponent underflow: a cusp).
+    let Some(r) = num.mul_inline(den).rsqrt() else {
+        return CurvaturePerMm::MAX;
     };
+    let mut k = num.mul_inline(r);
     if dot < 0 {
         // Turn sharper than 90°: −cos α · 2 tan(α/2) / min(ta, tb)
         //   = 2|dot|(ta tb + |dot|) / (ta tb |u×v| min(ta, tb)), squared.
@@ -250,15 +275,13 @@ pub(crate) fn curvature_of_chords(
         let m = ta.min(tb);
         let corner_num = abs_dot.mul(abs_dot).mul(t).mul(t).scale2(2);
         let corner_den = ta_tb_sq.mul(cross_sq).mul(m).mul(m);
-        match corner_num.div(corner_den) {
-            Some(c) => k_sq = k_sq.max(c),
+        match corner_num.mul(corner_den).rsqrt() {
+            Some(r) => k = k.max(corner_num.mul(r)),
             None => return CurvaturePerMm::MAX,
         }
     }
     // κ is in 1/raw unit; 1/mm = 2^32 · (1/raw), and I32F32 holds 2^32 · value.
-    CurvaturePerMm(fixed::types::I32F32::from_bits(
-        k_sq.sqrt().to_i64_scaled(64),
-    ))
+    CurvaturePerMm(fixed::types::I32F32::from_bits(k.to_i64_scaled(64)))
 }
 
 #[cfg(test)]

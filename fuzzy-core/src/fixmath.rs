@@ -12,6 +12,52 @@
 //! All functions are `const fn`, so membership tables of `const` controllers
 //! are computed at compile time.
 
+/// `(x >> s) as u32` (the low word of a logical right shift), `s` in
+/// `0..64` (0 beyond), with 32-bit shifts only: at opt-level "z" a variable
+/// 64-bit shift is a library call on a 32-bit core.
+#[inline(always)]
+pub(crate) const fn shr_u64_low(x: u64, s: u32) -> u32 {
+    let (hi, lo) = ((x >> 32) as u32, x as u32);
+    if s == 0 {
+        lo
+    } else if s < 32 {
+        (hi << (32 - s)) | (lo >> s)
+    } else if s < 64 {
+        hi >> (s - 32)
+    } else {
+        0
+    }
+}
+
+/// `(x >> s) as i32` (the low word of an arithmetic right shift), `s` in
+/// `0..64` (the sign beyond), with 32-bit shifts only.
+#[inline(always)]
+pub(crate) const fn sar_i64_low(x: i64, s: u32) -> i32 {
+    let (hi, lo) = ((x >> 32) as i32, x as u32);
+    if s == 0 {
+        lo as i32
+    } else if s < 32 {
+        (((hi as u32) << (32 - s)) | (lo >> s)) as i32
+    } else if s < 64 {
+        hi >> (s - 32)
+    } else {
+        hi >> 31
+    }
+}
+
+/// `(x as u64) << s` for `s` in `0..=32` (`x << 32` beyond), with 32-bit
+/// shifts only.
+#[inline(always)]
+pub(crate) const fn shl_u32_wide(x: u32, s: u32) -> u64 {
+    if s == 0 {
+        x as u64
+    } else if s < 32 {
+        (((x >> (32 - s)) as u64) << 32) | (x << s) as u64
+    } else {
+        (x as u64) << 32
+    }
+}
+
 /// `(u1·2^32 + u0) / v` and the remainder, for `u1 < v` (so the quotient fits
 /// 32 bits). Hacker's Delight, `divlu`, with 32-bit hardware divisions only.
 pub(crate) const fn divlu(u1: u32, u0: u32, v: u32) -> (u32, u32) {
@@ -178,6 +224,20 @@ mod tests {
             let u1 = u1 % v;
             let n = ((u1 as u64) << 32) | u0 as u64;
             prop_assert_eq!(divlu(u1, u0, v), ((n / v as u64) as u32, (n % v as u64) as u32));
+        }
+    }
+
+    proptest! {
+        #[test]
+        fn narrow_shifts_match_u64_shifts(x in any::<u64>(), s in 0u32..70) {
+            let want = if s < 64 { (x >> s) as u32 } else { 0 };
+            prop_assert_eq!(shr_u64_low(x, s), want);
+            let xi = x as i64;
+            let want = if s < 64 { (xi >> s) as i32 } else { (xi >> 63) as i32 };
+            prop_assert_eq!(sar_i64_low(xi, s), want);
+            let w = x as u32;
+            let want = (w as u64) << s.min(32);
+            prop_assert_eq!(shl_u32_wide(w, s), want);
         }
     }
 

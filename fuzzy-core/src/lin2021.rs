@@ -50,7 +50,7 @@
 //! **No rule fires**: impossible with these partitions; the default output
 //! is 0, i.e. the configured minimum feed.
 
-use crate::fixmath::div_u64_u32;
+use crate::fixmath::{divlu, shr_u64_low};
 use crate::fuzzy::{
     AndMethod, Controller, ExactController, Implication, Inference, MembershipFn, OrMethod, Rule,
     SystemDef, Term, Variable,
@@ -303,10 +303,14 @@ impl VariationScale {
         if span <= 0 || span >= 1 << 47 {
             return if v > 0 { Fx::ONE } else { Fx::ZERO };
         }
-        // Drop low bits until the divisor fits 32 bits (hardware division).
-        let k = (64 - span.leading_zeros() as i32 - 32).max(0);
-        let (v, span) = ((v >> k) as u64, (span >> k) as u32);
-        let q = div_u64_u32((v << 16) + (span / 2) as u64, span);
+        // Drop low bits until the divisor fits 32 bits (hardware division),
+        // with 32-bit shifts only.
+        let k = (32 - span.leading_zeros() as i32).max(0) as u32;
+        let (v, span) = (shr_u64_low(v as u64, k), shr_u64_low(span as u64, k));
+        // v <= span, so the quotient is at most 2^16 and the high word of
+        // the dividend is below the divisor: one long division.
+        let n = ((v as u64) << 16) + (span / 2) as u64;
+        let (q, _) = divlu((n >> 32) as u32, n as u32, span);
         Fx::from_bits(q.min(1 << 16) as i32)
     }
 }

@@ -13,7 +13,7 @@
 
 use core::cmp::Ordering;
 
-use crate::fixmath::divlu;
+use crate::fixmath::{divlu, shl_u32_wide, shr_u64_low};
 
 /// A positive number `mant · 2^exp` (`mant` in `[2^31, 2^32)`, or zero).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -28,14 +28,20 @@ impl Sf {
 
     /// `x · 2^exp`, truncated to 32 significant bits.
     pub(crate) const fn from_u64_exp(x: u64, exp: i32) -> Sf {
+        Sf::from_u64_exp_inline(x, exp)
+    }
+
+    /// [`Self::from_u64_exp`], inlined into the caller (hot code).
+    #[inline(always)]
+    pub(crate) const fn from_u64_exp_inline(x: u64, exp: i32) -> Sf {
         if x == 0 {
             return Sf::ZERO;
         }
         let shift = 32 - x.leading_zeros() as i32; // in -31..=32
         let mant = if shift >= 0 {
-            (x >> shift) as u32
+            shr_u64_low(x, shift as u32)
         } else {
-            (x << -shift) as u32
+            (x as u32) << (-shift) as u32
         };
         Sf {
             mant,
@@ -46,6 +52,12 @@ impl Sf {
     /// `x` as a soft float.
     pub(crate) const fn from_u64(x: u64) -> Sf {
         Sf::from_u64_exp(x, 0)
+    }
+
+    /// [`Self::from_u64`], inlined into the caller (hot code).
+    #[inline(always)]
+    pub(crate) const fn from_u64_inline(x: u64) -> Sf {
+        Sf::from_u64_exp_inline(x, 0)
     }
 
     /// Whether this is zero.
@@ -64,8 +76,15 @@ impl Sf {
         }
     }
 
-    /// Product, truncated.
+    /// Product, truncated (out of line: [`Self::mul_inline`] in hot code).
     pub(crate) const fn mul(self, o: Sf) -> Sf {
+        self.mul_inline(o)
+    }
+
+    /// [`Self::mul`], inlined into the caller (the curvature's chain of
+    /// products: a call costs as much as the product on a Cortex-M4).
+    #[inline(always)]
+    pub(crate) const fn mul_inline(self, o: Sf) -> Sf {
         let p = self.mant as u64 * o.mant as u64;
         if p == 0 {
             return Sf::ZERO;
@@ -116,10 +135,13 @@ impl Sf {
         let d = big.exp.saturating_sub(small.exp);
         // Keep 31 guard bits: both mantissas fit in 63 bits after aligning.
         let hi = (big.mant as u64) << 31;
+        // (small.mant << 31) >> d, with 32-bit shifts.
         let lo = if d >= 63 {
             0
+        } else if d <= 31 {
+            shl_u32_wide(small.mant, (31 - d) as u32)
         } else {
-            ((small.mant as u64) << 31) >> d
+            (small.mant >> (d - 31) as u32) as u64
         };
         Sf::from_u64_exp(hi + lo, big.exp.saturating_sub(31))
     }
@@ -145,6 +167,28 @@ impl Sf {
         }
     }
 
+    /// `1/sqrt(self)` to about 2^-29 relative (Newton steps, truncated:
+    /// not correctly rounded, but ~6 times cheaper than [`Self::sqrt`] plus
+    /// [`Self::div`]); `None` for zero.
+    pub(crate) const fn rsqrt(self) -> Option<Sf> {
+        if self.mant == 0 {
+            return None;
+        }
+        // self = A·2^(e + 30) with A = mant/2^30 in [2, 4) for an even
+        // exponent e, or A = mant/2^31 in [1, 2) (a = mant/2, Q30) and
+        // 2^(e + 31) for an odd one: the power of two halves exactly.
+        let (a, p) = if self.exp & 1 == 0 {
+            (self.mant, self.exp.saturating_add(30))
+        } else {
+            (self.mant >> 1, self.exp.saturating_add(31))
+        };
+        let r = rsqrt_q31(a);
+        Some(Sf::from_u64_exp_inline(
+            r as u64,
+            (-31i32).saturating_sub(p >> 1),
+        ))
+    }
+
     /// `self · 2^k` as an integer, rounded to nearest, saturating at
     /// `i64::MAX`.
     pub(crate) const fn to_i64_scaled(self, k: i32) -> i64 {
@@ -156,14 +200,14 @@ impl Sf {
             return i64::MAX; // mant · 2^32 >= 2^63
         }
         if e >= 0 {
-            return (self.mant as i64) << e;
+            return shl_u32_wide(self.mant, e as u32) as i64;
         }
         if e < -33 {
             return 0;
         }
         let sh = (-e) as u32;
         // Round to nearest: add half an output unit before shifting.
-        (((self.mant as u64) + (1u64 << (sh - 1))) >> sh) as i64
+        shr_u64_low(self.mant as u64 + shl_u32_wide(1, sh - 1), sh) as i64
     }
 
     /// Total order of positive values.
@@ -221,11 +265,11 @@ const RSQRT_SEED_Q31: [u32; 24] = [
     1227261320, 1202947073, 1180023296, 1158362288, 1137852195, 1118394560, 1099902330, 1082298212,
 ];
 
-/// `floor(sqrt(n))` for `n` in `[2^62, 2^64)` (so the result is in
-/// `[2^31, 2^32)`): three division-free Newton steps on `1/sqrt`, then an
-/// exact correction. About 60 instructions on a Cortex-M4.
-const fn isqrt_norm(n: u64) -> u32 {
-    let a = (n >> 32) as u32; // a / 2^30 in [1, 4)
+/// `1/sqrt(a/2^30)` in Q31 for `a` in `[2^30, 2^32)` (so in `(2^30, 2^31]`):
+/// three division-free Newton steps from [`RSQRT_SEED_Q31`]. The
+/// truncations leave it a few units (of 2^-31) low.
+#[inline(always)]
+const fn rsqrt_q31(a: u32) -> u32 {
     let idx = (a >> 27) as usize; // 8..=31
     let mut r: u32 = if idx >= 8 && idx < 32 {
         RSQRT_SEED_Q31[idx - 8]
@@ -242,6 +286,15 @@ const fn isqrt_norm(n: u64) -> u32 {
         r = ((r as u64 * h as u64) >> 31) as u32;
         i += 1;
     }
+    r
+}
+
+/// `floor(sqrt(n))` for `n` in `[2^62, 2^64)` (so the result is in
+/// `[2^31, 2^32)`): three division-free Newton steps on `1/sqrt`, then an
+/// exact correction. About 60 instructions on a Cortex-M4.
+const fn isqrt_norm(n: u64) -> u32 {
+    let a = (n >> 32) as u32; // a / 2^30 in [1, 4)
+    let r = rsqrt_q31(a);
     // sqrt(a/2^30) = (a/2^30)·r, in Q31, equals sqrt(a·2^32) ≈ sqrt(n).
     // Rounded: the truncations above leave r a few units low.
     let s = (a as u64 * r as u64 + (3 << 29)) >> 30;
@@ -250,16 +303,17 @@ const fn isqrt_norm(n: u64) -> u32 {
     } else {
         s
     };
-    // Exact floor: s is within a few units of the answer.
-    let mut k = 0;
-    while k < 8 && s * s > n {
+    // Exact floor: s is within a few units of the answer (-3..=8 over
+    // random inputs). Step on the remainder d = n − s² (|d| < 2^40 here,
+    // exact in i64) with additions only: (s ± 1)² = s² ± (2s ± 1).
+    let mut d = n.wrapping_sub(s * s) as i64;
+    while d < 0 {
         s -= 1;
-        k += 1;
+        d += (2 * s + 1) as i64;
     }
-    let mut k = 0;
-    while k < 8 && s < u32::MAX as u64 && (s + 1) * (s + 1) <= n {
+    while d >= (2 * s + 1) as i64 {
+        d -= (2 * s + 1) as i64;
         s += 1;
-        k += 1;
     }
     s as u32
 }
@@ -343,6 +397,16 @@ mod tests {
             prop_assert!(rel(x.add(y).to_f64(), xf + yf) < 1e-9);
             prop_assert!(rel(x.sqrt().to_f64(), xf.sqrt()) < 1e-9);
             prop_assert_eq!(x.cmp(y), xf.partial_cmp(&yf).unwrap());
+        }
+    }
+
+    proptest! {
+        #[test]
+        fn rsqrt_tracks_f64(a in 1u64.., e in -200i32..200) {
+            let x = Sf::from_u64_exp(a, e);
+            let want = 1.0 / x.to_f64().sqrt();
+            let got = x.rsqrt().unwrap().to_f64();
+            prop_assert!(((got - want) / want).abs() < 4e-9, "{} vs {}", got, want);
         }
     }
 

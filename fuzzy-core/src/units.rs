@@ -75,10 +75,10 @@ impl Point3Mm {
 
     /// Whether every coordinate is within ±[`COORD_LIMIT_MM`].
     pub fn within_limits(self) -> bool {
-        let lim = I32F32::from_num(COORD_LIMIT_MM);
-        [self.x, self.y, self.z]
-            .iter()
-            .all(|c| *c <= lim && *c >= -lim)
+        // |c| <= lim as one unsigned comparison: c + lim in [0, 2·lim].
+        const LIM: u64 = (COORD_LIMIT_MM as u64) << 32;
+        let ok = |c: I32F32| (c.to_bits() as u64).wrapping_add(LIM) <= 2 * LIM;
+        ok(self.x) & ok(self.y) & ok(self.z)
     }
 }
 
@@ -168,8 +168,17 @@ impl defmt::Format for FeedMmPerMin {
 /// Saturating conversion of a curvature to the fuzzy engine's Q16.16
 /// (curvatures above 32767 /mm saturate; the controller clips at a few /mm).
 pub fn curvature_to_fx(k: CurvaturePerMm) -> Fx {
-    let bits = k.0.to_bits() >> 16;
-    Fx::from_bits(bits.clamp(i32::MIN as i64, i32::MAX as i64) as i32)
+    let bits = k.0.to_bits();
+    // In range when bits 47..63 are all equal (one 32-bit test of the high
+    // word instead of two 64-bit comparisons).
+    let hi = (bits >> 32) as i32;
+    if hi >> 15 == hi >> 31 {
+        Fx::from_bits((bits >> 16) as i32)
+    } else if bits < 0 {
+        Fx::MIN
+    } else {
+        Fx::MAX
+    }
 }
 
 #[cfg(test)]
@@ -195,6 +204,35 @@ mod tests {
             curvature_to_fx(CurvaturePerMm::from_f64(0.5)),
             Fx::from_num(0.5)
         );
+    }
+
+    proptest::proptest! {
+        /// The branch-light forms agree with the plain definitions.
+        #[test]
+        fn limit_and_conversion_tricks_match_definitions(
+            bits in proptest::prelude::any::<[i64; 3]>(),
+            edge in -2i64..=2,
+            which in 0usize..3,
+        ) {
+            let lim = (COORD_LIMIT_MM as i64) << 32;
+            let mut b = bits;
+            // Half the cases right at the limits.
+            if edge != 0 {
+                b[which] = edge.signum() * lim + (edge - edge.signum());
+            }
+            let p = Point3Mm::from_bits(b[0], b[1], b[2]);
+            let want = b.iter().all(|&c| (-lim..=lim).contains(&c));
+            proptest::prop_assert_eq!(p.within_limits(), want);
+            for &k in &b {
+                let want = (k >> 16).clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+                let got = curvature_to_fx(CurvaturePerMm(I32F32::from_bits(k))).to_bits();
+                proptest::prop_assert_eq!(got, want);
+                let k = k >> (k as u32 % 40);
+                let want = (k >> 16).clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+                let got = curvature_to_fx(CurvaturePerMm(I32F32::from_bits(k))).to_bits();
+                proptest::prop_assert_eq!(got, want);
+            }
+        }
     }
 
     #[test]

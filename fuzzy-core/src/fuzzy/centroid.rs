@@ -32,7 +32,7 @@
 //! integral; for Lin's controller the two differ by up to 0.12 % of the feed
 //! range (see `tests/controller_accuracy.rs`).
 
-use crate::fixmath::div_u64_u32;
+use crate::fixmath::divlu;
 
 /// 1.0 in Q29.
 const ONE: i32 = 1 << 29;
@@ -216,15 +216,22 @@ impl<const NO: usize> Chain<NO> {
     }
 
     /// The centroid as a fraction of the universe (Q30) for the terms'
-    /// strengths (raw Q16.16); `None` when the aggregate is empty.
-    pub(crate) fn centroid_q30(&self, strength: &[i32; NO]) -> Option<i64> {
-        let n = self.n.min(NO);
+    /// strengths (raw Q16.16); `None` when the aggregate is empty. Only
+    /// terms `first..=last` are visited: the caller promises the others
+    /// have strength 0 (they would add nothing).
+    pub(crate) fn centroid_q30(
+        &self,
+        strength: &[i32; NO],
+        first: usize,
+        last: usize,
+    ) -> Option<i64> {
+        let end = self.n.min(NO).min(last.saturating_add(1));
         let (mut area, mut moment) = (0i64, 0i64);
-        // Strengths in Q29, and the previous one for the overlap term.
+        // Strengths in Q29, and the previous one for the overlap term (0
+        // before `first`).
         let mut prev = 0i32;
-        // Indexed: term k, strength k and overlap k − 1 are used together.
-        #[allow(clippy::needless_range_loop)]
-        for k in 0..n {
+        let mut k = first;
+        while k < end {
             let s = strength[k].clamp(0, 1 << 16) << 13;
             if s > 0 {
                 let (a, m) = self.terms[k].clipped(s);
@@ -247,12 +254,17 @@ impl<const NO: usize> Chain<NO> {
                 }
             }
             prev = s;
+            k += 1;
         }
         if area <= 0 {
             return None;
         }
-        let moment = moment.clamp(0, area) as u64;
-        // moment/area in Q30; area <= 2 in Q29 < 2^31.
-        Some(div_u64_u32(moment << 30, area as u32) as i64)
+        // moment/area in Q30 (at most 2^30): area <= 2 in Q29 < 2^31 and
+        // moment <= area, so the high word of moment·2^30 is below area
+        // and one 64-by-32-bit long division gives the quotient.
+        let area = area as u32;
+        let moment = (moment.clamp(0, area as i64) as u64) << 30;
+        let (q, _) = divlu((moment >> 32) as u32, moment as u32, area);
+        Some(q as i64)
     }
 }

@@ -415,6 +415,32 @@ impl<'a, const NI: usize, const NT: usize, const NO: usize, const S: usize>
             && self.partition.iter().all(|&p| p)
     }
 
+    /// Input `i` at `x` (raw, clamped to the universe) on a partition: the
+    /// first term that can be non-zero, its degree and the next term's (0
+    /// when there is none).
+    #[inline(always)]
+    fn candidates(&self, i: usize, x: Fx) -> (usize, i32, i32) {
+        let (Some(mfs), Some(&terms), Some(&(lo, hi))) = (
+            self.inputs.get(i),
+            self.input_terms.get(i),
+            self.input_range.get(i),
+        ) else {
+            return (0, 0, 0);
+        };
+        let n = (terms as usize).min(NT);
+        let x = x.to_bits().max(lo).min(hi);
+        let mut j = 0;
+        while j + 1 < n && mfs.get(j).is_some_and(|mf| mf.upper_end() < x) {
+            j += 1;
+        }
+        let first = mfs.get(j).map_or(0, |mf| mf.degree(x));
+        let next = match mfs.get(j + 1) {
+            Some(mf) if j + 1 < n => mf.degree(x),
+            _ => 0,
+        };
+        (j, first, next)
+    }
+
     /// The common case in a few plain loops: with partitioned inputs at most
     /// two neighbouring terms per input are non-zero, so at most `2^NI` rules
     /// fire; each adds its strength to its consequent; the chain's closed-form
@@ -429,50 +455,86 @@ impl<'a, const NI: usize, const NT: usize, const NO: usize, const S: usize>
         let (Some(grid), Some(chain)) = (&self.grid, &self.chain) else {
             return default;
         };
-        // Per input: the first term that can be non-zero, its degree and the
-        // next term's.
-        let mut first = [0usize; NI];
-        let mut deg = [[0i32; 2]; NI];
-        for i in 0..NI {
-            let n = self.input_terms[i] as usize;
-            let (lo, hi) = self.input_range[i];
-            let x = inputs[i].to_bits().max(lo).min(hi);
-            let mfs = &self.inputs[i];
-            let mut j = 0;
-            while j + 1 < n && j < NT && mfs[j].upper_end() < x {
-                j += 1;
-            }
-            first[i] = j;
-            if j < NT {
-                deg[i][0] = mfs[j].degree(x);
-            }
-            if j + 1 < n && j + 1 < NT {
-                deg[i][1] = mfs[j + 1].degree(x);
-            }
-        }
-        // Rules: every combination of the two candidates of each input.
+        // Each fired rule adds its strength to its consequent (max);
+        // `lowest..=highest` is the range of fired consequents.
         let mut strength = [0i32; NO];
+        let (mut lowest, mut highest) = (NO, 0);
         let mut best = 0;
-        for mask in 0..(1usize << NI) {
-            let mut w = ONE;
-            let mut code = 0usize;
-            for i in 0..NI {
-                let bit = (mask >> i) & 1;
-                w = w.min(deg[i][bit]);
-                code += (first[i] + bit) * self.stride[i] as usize;
-            }
+        let mut fire = |w: i32, code: usize| {
             if w > 0 {
                 let then = grid.get(code).copied().unwrap_or(0) as usize;
                 if let Some(s) = strength.get_mut(then) {
                     *s = (*s).max(w);
+                    lowest = lowest.min(then);
+                    highest = highest.max(then);
                 }
                 best = best.max(w);
             }
+        };
+        if NI == 2 {
+            // Two inputs (Lin's controller, the scheduler's hot path): the
+            // four candidate rules written out.
+            let input = |i: usize| inputs.get(i).copied().unwrap_or(Fx::ZERO);
+            let stride = |i: usize| self.stride.get(i).copied().unwrap_or(0) as usize;
+            let (j0, a0, b0) = self.candidates(0, input(0));
+            let (j1, a1, b1) = self.candidates(1, input(1));
+            let (s0, s1) = (stride(0), stride(1));
+            let base = j0 * s0 + j1 * s1;
+            fire(a0.min(a1), base);
+            if b0 > 0 {
+                fire(b0.min(a1), base + s0);
+            }
+            if b1 > 0 {
+                fire(a0.min(b1), base + s1);
+                if b0 > 0 {
+                    fire(b0.min(b1), base + s0 + s1);
+                }
+            }
+        } else {
+            // Per input: the first candidate term and the two degrees.
+            // `base` is the grid index of the rule made of every input's
+            // first candidate; `second` has bit i set when input i's second
+            // candidate is non-zero, so the rules worth visiting are the
+            // sub-masks of `second`.
+            let mut base = 0usize;
+            let mut second = 0usize;
+            let mut deg = [[0i32; 2]; NI];
+            for (i, ((d, &x), &step)) in deg
+                .iter_mut()
+                .zip(inputs.iter())
+                .zip(self.stride.iter())
+                .enumerate()
+            {
+                let (j, first, next) = self.candidates(i, x);
+                base += j * step as usize;
+                *d = [first, next];
+                if next > 0 {
+                    second |= 1 << i;
+                }
+            }
+            let mut mask = second;
+            loop {
+                let mut w = ONE;
+                let mut code = base;
+                for (i, (d, &step)) in deg.iter().zip(self.stride.iter()).enumerate() {
+                    if (mask >> i) & 1 != 0 {
+                        w = w.min(d[1]);
+                        code += step as usize;
+                    } else {
+                        w = w.min(d[0]);
+                    }
+                }
+                fire(w, code);
+                if mask == 0 {
+                    break;
+                }
+                mask = (mask - 1) & second;
+            }
         }
-        if best == 0 {
+        if best == 0 || lowest > highest {
             return default;
         }
-        match chain.centroid_q30(&strength) {
+        match chain.centroid_q30(&strength, lowest, highest) {
             Some(u) => {
                 let span = (self.out_max as i64 - self.out_min as i64) as u64;
                 let offset = (span * u as u64 + (1 << 29)) >> 30;
@@ -625,7 +687,7 @@ impl<'a, const NI: usize, const NT: usize, const NO: usize, const S: usize>
         let out = match def.inference {
             Inference::Mamdani { implication } => {
                 let v = match (&self.chain, sampled) {
-                    (Some(chain), false) => chain.centroid_q30(&strength).map(|u| {
+                    (Some(chain), false) => chain.centroid_q30(&strength, 0, NO).map(|u| {
                         let span = (self.out_max as i64 - self.out_min as i64) as u64;
                         let offset = (span * u as u64 + (1 << 29)) >> 30;
                         saturate_i32(self.out_min as i64 + offset as i64)
@@ -764,36 +826,54 @@ impl<const NI: usize, const NT: usize, const NO: usize, const S: usize> FuzzyInf
 /// apply ([`Self::is_exact`] says; the users test it), every output would
 /// be the default output.
 #[derive(Clone, Debug)]
-pub struct ExactController<'a, const NI: usize, const NT: usize, const NO: usize>(
-    Controller<'a, NI, NT, NO, 2>,
-);
+pub struct ExactController<'a, const NI: usize, const NT: usize, const NO: usize> {
+    controller: Controller<'a, NI, NT, NO, 2>,
+    /// Whether the fast path applies (decided once, at construction).
+    exact: bool,
+}
 
 impl<'a, const NI: usize, const NT: usize, const NO: usize> ExactController<'a, NI, NT, NO> {
     /// Validate `def` and compile it.
     pub const fn new(def: &'a SystemDef<'a, NI>) -> Result<Self, ConfigError> {
         match Controller::new(def) {
-            Ok(c) => Ok(ExactController(c)),
+            Ok(c) => {
+                let mut exact =
+                    c.grid.is_some() && c.chain.is_some() && matches!(c.def.and, AndMethod::Min);
+                let mut i = 0;
+                while i < NI {
+                    exact = exact && c.partition[i];
+                    i += 1;
+                }
+                Ok(ExactController {
+                    controller: c,
+                    exact,
+                })
+            }
             Err(e) => Err(e),
         }
     }
 
     /// The compiled controller (2 centroid samples).
     pub const fn controller(&self) -> &Controller<'a, NI, NT, NO, 2> {
-        &self.0
+        &self.controller
     }
 
     /// Whether the fast path applies (else every output is the default).
     pub fn is_exact(&self) -> bool {
-        self.0.fast_path()
+        self.exact
     }
 
     /// One inference (inputs clamped to their universes).
     pub fn evaluate(&self, inputs: [Fx; NI]) -> Evaluation {
-        self.0.evaluate_exact(inputs).unwrap_or(Evaluation {
-            output: self.0.def.default_output,
-            fired: false,
-            strength: Fx::ZERO,
-        })
+        if self.exact {
+            self.controller.infer_partition_grid(inputs)
+        } else {
+            Evaluation {
+                output: self.controller.def.default_output,
+                fired: false,
+                strength: Fx::ZERO,
+            }
+        }
     }
 }
 
@@ -1070,6 +1150,22 @@ mod tests {
             mom += wgt * u * v;
         }
         mom / area
+    }
+
+    /// `ExactController` decides its fast path once, as `fast_path` would,
+    /// and falls back on the default output when it does not apply.
+    #[test]
+    fn exact_controller_flag_matches_fast_path() {
+        let lin = ExactController::<2, 6, 7>::new(&crate::lin2021::SYSTEM).unwrap();
+        assert!(lin.is_exact() && lin.controller().fast_path());
+        let njiri = ExactController::<4, 3, 7>::new(&crate::njiri::SYSTEM).unwrap();
+        assert!(njiri.is_exact() && njiri.controller().fast_path());
+        // Cho's bell-shaped terms are no partition: no fast path.
+        let cho = ExactController::<2, 5, 5>::new(&crate::cho::SYSTEM).unwrap();
+        assert!(!cho.is_exact() && !cho.controller().fast_path());
+        let e = cho.evaluate([Fx::from_num(0.3), Fx::from_num(0.2)]);
+        assert!(!e.fired);
+        assert_eq!(e.output, crate::cho::SYSTEM.default_output);
     }
 
     #[test]
