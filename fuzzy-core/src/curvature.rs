@@ -90,10 +90,7 @@ struct Scaled {
 impl Scaled {
     /// `None` for the zero vector.
     fn new(d: [i64; 3]) -> Option<Scaled> {
-        let m = d[0]
-            .unsigned_abs()
-            .max(d[1].unsigned_abs())
-            .max(d[2].unsigned_abs());
+        let m = max_abs(&d);
         if m == 0 {
             return None;
         }
@@ -187,12 +184,17 @@ fn diff_in_range(b: &Point3Mm, a: &Point3Mm) -> [i64; 3] {
     ]
 }
 
+/// The largest component magnitude (0 for the zero vector).
+#[inline(always)]
+fn max_abs(c: &[i64; 3]) -> u64 {
+    c[0].unsigned_abs()
+        .max(c[1].unsigned_abs())
+        .max(c[2].unsigned_abs())
+}
+
 /// Squared norm of a vector of `i64` (the cross product).
 fn norm_sq_i64(c: [i64; 3]) -> Sf {
-    let m = c[0]
-        .unsigned_abs()
-        .max(c[1].unsigned_abs())
-        .max(c[2].unsigned_abs());
+    let m = max_abs(&c);
     if m == 0 {
         return Sf::ZERO;
     }

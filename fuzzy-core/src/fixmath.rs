@@ -110,6 +110,14 @@ pub(crate) const fn divlu(u1: u32, u0: u32, v: u32) -> (u32, u32) {
     ((q1 << 16) + q0, r)
 }
 
+/// `n / d` (floor) when the quotient fits 32 bits (`n < d · 2^32`, i.e. the
+/// high word of `n` is below `d`): one long division, without
+/// [`div_u64_u32`]'s first step. Outside the contract: `u32::MAX`.
+#[inline(always)]
+pub(crate) const fn div_narrow(n: u64, d: u32) -> u32 {
+    divlu((n >> 32) as u32, n as u32, d).0
+}
+
 /// `n / d` (floor) for a 32-bit divisor; `u64::MAX` for `d = 0`.
 pub(crate) const fn div_u64_u32(n: u64, d: u32) -> u64 {
     if d == 0 {
@@ -217,6 +225,12 @@ mod tests {
         #[test]
         fn div_matches_u64_division(n in any::<u64>(), d in 1u32..) {
             prop_assert_eq!(div_u64_u32(n, d), n / d as u64);
+        }
+
+        #[test]
+        fn div_narrow_matches(n in any::<u64>(), d in 1u32..) {
+            let n = n % ((d as u64) << 32); // the contract: quotient < 2^32
+            prop_assert_eq!(div_narrow(n, d) as u64, n / d as u64);
         }
 
         #[test]

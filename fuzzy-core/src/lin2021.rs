@@ -50,7 +50,7 @@
 //! **No rule fires**: impossible with these partitions; the default output
 //! is 0, i.e. the configured minimum feed.
 
-use crate::fixmath::{divlu, shr_u64_low};
+use crate::fixmath::{div_narrow, shr_u64_low};
 use crate::fuzzy::{
     AndMethod, Controller, ExactController, Implication, Inference, MembershipFn, OrMethod, Rule,
     SystemDef, Term, Variable,
@@ -309,8 +309,7 @@ impl VariationScale {
         let (v, span) = (shr_u64_low(v as u64, k), shr_u64_low(span as u64, k));
         // v <= span, so the quotient is at most 2^16 and the high word of
         // the dividend is below the divisor: one long division.
-        let n = ((v as u64) << 16) + (span / 2) as u64;
-        let (q, _) = divlu((n >> 32) as u32, n as u32, span);
+        let q = div_narrow(((v as u64) << 16) + (span / 2) as u64, span);
         Fx::from_bits(q.min(1 << 16) as i32)
     }
 }

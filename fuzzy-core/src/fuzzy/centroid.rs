@@ -32,7 +32,7 @@
 //! integral; for Lin's controller the two differ by up to 0.12 % of the feed
 //! range (see `tests/controller_accuracy.rs`).
 
-use crate::fixmath::divlu;
+use crate::fixmath::div_narrow;
 
 /// 1.0 in Q29.
 const ONE: i32 = 1 << 29;
@@ -264,7 +264,6 @@ impl<const NO: usize> Chain<NO> {
         // and one 64-by-32-bit long division gives the quotient.
         let area = area as u32;
         let moment = (moment.clamp(0, area as i64) as u64) << 30;
-        let (q, _) = divlu((moment >> 32) as u32, moment as u32, area);
-        Some(q as i64)
+        Some(div_narrow(moment, area) as i64)
     }
 }

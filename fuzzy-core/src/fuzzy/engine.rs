@@ -408,11 +408,15 @@ impl<'a, const NI: usize, const NT: usize, const NO: usize, const S: usize>
 
     /// Whether [`Self::infer_partition_grid`] applies: grid rules with min AND,
     /// every input a partition, the output a chain (min implication).
-    fn fast_path(&self) -> bool {
-        self.grid.is_some()
-            && self.chain.is_some()
-            && self.def.and == AndMethod::Min
-            && self.partition.iter().all(|&p| p)
+    const fn fast_path(&self) -> bool {
+        let mut ok =
+            self.grid.is_some() && self.chain.is_some() && matches!(self.def.and, AndMethod::Min);
+        let mut i = 0;
+        while i < NI {
+            ok = ok && self.partition[i];
+            i += 1;
+        }
+        ok
     }
 
     /// Input `i` at `x` (raw, clamped to the universe) on a partition: the
@@ -836,19 +840,10 @@ impl<'a, const NI: usize, const NT: usize, const NO: usize> ExactController<'a, 
     /// Validate `def` and compile it.
     pub const fn new(def: &'a SystemDef<'a, NI>) -> Result<Self, ConfigError> {
         match Controller::new(def) {
-            Ok(c) => {
-                let mut exact =
-                    c.grid.is_some() && c.chain.is_some() && matches!(c.def.and, AndMethod::Min);
-                let mut i = 0;
-                while i < NI {
-                    exact = exact && c.partition[i];
-                    i += 1;
-                }
-                Ok(ExactController {
-                    controller: c,
-                    exact,
-                })
-            }
+            Ok(c) => Ok(ExactController {
+                exact: c.fast_path(),
+                controller: c,
+            }),
             Err(e) => Err(e),
         }
     }
