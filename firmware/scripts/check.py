@@ -147,23 +147,47 @@ def cost(bless):
 
 
 def panic(bless):
-    """Link the release image with a panic handler that cannot link
-    (feature panic-never). If that fails, list every call into a core
-    panic function in the normal image with its source location, and
-    compare with firmware/baseline/panic-sites.txt (file and panic kind):
-    sites in that list are known and reported; any other fails."""
+    """Both images users run: the QEMU image and the board image
+    (--features board, defmt over RTT), each against its own list."""
+    failed = panic_image(bless, [], "panic-sites.txt", "release image")
+    failed |= panic_image(bless, ["--no-default-features", "--features", "board"],
+                          "panic-sites-board.txt", "board image (--features board)")
+    return 1 if failed else 0
+
+
+def panic_image(bless, features, baseline, label):
+    """Link the image with a panic handler that cannot link (feature
+    panic-never). If that fails, list every call into a core panic function
+    in the normal image with its source location, and compare with
+    firmware/baseline/<baseline> (file and panic kind): sites in that list
+    are known and reported; any other fails."""
     env = dict(os.environ)
     env.pop("CARGO_TARGET_DIR", None)
-    res = subprocess.run(["cargo", "build", "--release", "--features", "panic-never"],
+    flags = list(features)
+    if "--features" in flags:
+        i = flags.index("--features") + 1
+        flags[i] += ",panic-never"
+    else:
+        flags += ["--features", "panic-never"]
+    res = subprocess.run(["cargo", "build", "--release", "--bin", "fuzzy-firmware"] + flags,
                          cwd=FW, env=env, capture_output=True, text=True)
-    # Back to the normal image (only the firmware crate itself rebuilds).
-    subprocess.run(["cargo", "build", "--release", "-q"], cwd=FW, env=env, check=True)
-    path = os.path.join(BASE, "panic-sites.txt")
+    # The normal image of the same features, for the site listing.
+    subprocess.run(["cargo", "build", "--release", "-q", "--bin", "fuzzy-firmware"] + list(features),
+                   cwd=FW, env=env, check=True)
+    path = os.path.join(BASE, baseline)
     known = [l.strip() for l in open(path) if l.strip() and not l.startswith("#")] if os.path.exists(path) else []
+    try:
+        return panic_sites(bless, res, path, known, label)
+    finally:
+        # Back to the default image (only the firmware crate itself rebuilds).
+        subprocess.run(["cargo", "build", "--release", "-q"], cwd=FW, env=env, check=True)
+
+
+def panic_sites(bless, res, path, known, label):
     if res.returncode == 0:
-        print("panic-never: the release image links without a panic handler: no reachable panic")
+        print(f"panic-never: the {label} links without a panic handler: no reachable panic")
         if known:
-            print(f"  {len(known)} entries in firmware/baseline/panic-sites.txt are no longer needed: remove them")
+            print(f"  {len(known)} entries in firmware/baseline/{os.path.basename(path)} are no longer needed: remove them")
         return 0
     if "panic path survived" not in res.stderr:
         print(res.stderr)
@@ -203,7 +227,7 @@ def panic(bless):
         # in the file do not move a known site into "new".
         sites.add(f"{site.rsplit(':', 1)[0]}  {m.group(1).split('::')[-1]}")
     new = sorted(s for s in sites if s not in known)
-    print("panic-never: the release image still has reachable panic paths:")
+    print(f"panic-never: the {label} still has reachable panic paths:")
     for s in sorted(sites):
         print(f"  {'NEW ' if s in new else 'known'} {s}")
     if bless:
@@ -214,9 +238,9 @@ def panic(bless):
                 f.write(s + "\n")
         return 0
     if new:
-        print("panic-never: NEW panic paths (not in firmware/baseline/panic-sites.txt): fix them")
+        print(f"panic-never: NEW panic paths in the {label} (not in firmware/baseline/{os.path.basename(path)}): fix them")
         return 1
-    print(f"panic-never: NOT PROVEN: {len(sites)} known sites, all in firmware/baseline/panic-sites.txt")
+    print(f"panic-never: {label} NOT PROVEN: {len(sites)} known sites, all in firmware/baseline/{os.path.basename(path)}")
     return 0
 
 

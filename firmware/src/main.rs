@@ -183,7 +183,7 @@ mod app {
     /// `false` (nothing queued) if it does not fit.
     fn send(tx: &mut Deque<u8, TX_BUFFER>, msg: &DeviceMsg, keep: usize) -> bool {
         let mut frame = [0u8; link::FRAME_MAX];
-        let Ok(n) = link::encode(msg, &mut frame) else {
+        let Ok(n) = link::encode_device(msg, &mut frame) else {
             return false;
         };
         if tx.capacity() - tx.len() < n + keep {

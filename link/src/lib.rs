@@ -321,6 +321,15 @@ pub fn encode<T: Serialize>(msg: &T, out: &mut [u8]) -> Result<usize, FrameError
     Ok(m + 1)
 }
 
+/// [`encode`] for the device's replies, compiled in this crate: the
+/// firmware calls this one so that postcard's varint writer is inlined and
+/// its bounds checks folded at this crate's opt-level (the firmware's
+/// `opt-level = "z"` would outline the slice index and keep its
+/// unreachable panic path; see firmware/Cargo.toml).
+pub fn encode_device(msg: &DeviceMsg, out: &mut [u8]) -> Result<usize, FrameError> {
+    encode(msg, out)
+}
+
 /// Check and decode one frame's content (COBS already undone): the
 /// postcard payload followed by its CRC.
 pub fn decode_payload<'de, T: Deserialize<'de>>(body: &'de [u8]) -> Result<T, ErrorCode> {
