@@ -10,9 +10,8 @@
 //! towards zero at the start or end. O(1) per feed with an exact integer
 //! running sum (no drift), `h` points of latency.
 
-use heapless::Deque;
-
-use crate::fixmath::div_u64_u32;
+use crate::fixmath::div_u64_small;
+use crate::ring::Ring;
 
 /// A feed leaving the filter, with its payload.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -29,7 +28,7 @@ pub struct Averaged<T> {
 #[derive(Clone, Debug)]
 pub struct AverageFilter<T, const N: usize> {
     /// Window entries, oldest first.
-    ring: Deque<(T, i64), N>,
+    ring: Ring<(T, i64), N>,
     /// Sum of the values in `ring`.
     sum: i64,
     /// Values pushed on this path.
@@ -38,23 +37,23 @@ pub struct AverageFilter<T, const N: usize> {
     released: u32,
 }
 
-impl<T: Copy, const N: usize> Default for AverageFilter<T, N> {
+impl<T: Copy + Default, const N: usize> Default for AverageFilter<T, N> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<T: Copy, const N: usize> AverageFilter<T, N> {
+impl<T: Copy + Default, const N: usize> AverageFilter<T, N> {
     const VALID: () = assert!(N % 2 == 1, "the average filter needs an odd window N");
     /// Half the window, `h`: the latency in values.
     pub const HALF: usize = N / 2;
 
     /// An empty filter.
-    pub const fn new() -> Self {
+    pub fn new() -> Self {
         #[allow(clippy::let_unit_value)]
         let () = Self::VALID;
         AverageFilter {
-            ring: Deque::new(),
+            ring: Ring::new(),
             sum: 0,
             pushed: 0,
             released: 0,
@@ -75,6 +74,22 @@ impl<T: Copy, const N: usize> AverageFilter<T, N> {
     /// its window is complete. Values must stay below 2^54 in magnitude
     /// (feeds below 2^22 mm/min in I32F32) so that the sum cannot overflow.
     pub fn push(&mut self, item: T, value: i64) -> Option<Averaged<T>> {
+        let r = self.push_in_place(item, value)?;
+        self.averaged(r)
+    }
+
+    /// At the end of a path: release the next held value, averaged over the
+    /// values that exist. `None` when all are released (the filter is then
+    /// ready for a new path).
+    pub fn flush(&mut self) -> Option<Averaged<T>> {
+        let r = self.flush_in_place()?;
+        self.averaged(r)
+    }
+
+    /// [`Self::push`], leaving the released payload in the filter (read it
+    /// with [`Self::item`] until the next push or flush): the scheduler's
+    /// payload is too large to move cheaply on the target.
+    pub(crate) fn push_in_place(&mut self, item: T, value: i64) -> Option<Released> {
         if self.ring.is_full() {
             // The oldest entry already left the window of every later value.
             if let Some((_, v)) = self.ring.pop_front() {
@@ -91,15 +106,27 @@ impl<T: Copy, const N: usize> AverageFilter<T, N> {
         }
     }
 
-    /// At the end of a path: release the next held value, averaged over the
-    /// values that exist. `None` when all are released (the filter is then
-    /// ready for a new path).
-    pub fn flush(&mut self) -> Option<Averaged<T>> {
+    /// [`Self::flush`], leaving the released payload in the filter.
+    pub(crate) fn flush_in_place(&mut self) -> Option<Released> {
         let out = self.release();
         if out.is_none() {
             self.clear();
         }
         out
+    }
+
+    /// The payload of a value just released.
+    #[inline(always)]
+    pub(crate) fn item(&self, r: &Released) -> Option<&T> {
+        self.ring.get(r.slot).map(|(item, _)| item)
+    }
+
+    fn averaged(&self, r: Released) -> Option<Averaged<T>> {
+        Some(Averaged {
+            item: *self.item(&r)?,
+            raw: r.raw,
+            mean: r.mean,
+        })
     }
 
     /// Drop everything.
@@ -110,7 +137,7 @@ impl<T: Copy, const N: usize> AverageFilter<T, N> {
         self.released = 0;
     }
 
-    fn release(&mut self) -> Option<Averaged<T>> {
+    fn release(&mut self) -> Option<Released> {
         if self.released >= self.pushed {
             return None;
         }
@@ -124,18 +151,31 @@ impl<T: Copy, const N: usize> AverageFilter<T, N> {
             }
         }
         let first = self.pushed as usize - self.ring.len();
-        let &(item, raw) = self.ring.get(i - first)?;
+        let slot = i.wrapping_sub(first);
+        let &(_, raw) = self.ring.get(slot)?;
         let n = self.ring.len() as u32; // 1..=N
         let half = (n / 2) as i64;
-        // Round half away from zero; hardware division for the usual case.
+        // Round half away from zero; n <= N is small: three hardware divisions.
         let mean = if self.sum >= 0 {
-            div_u64_u32((self.sum + half) as u64, n) as i64
+            div_u64_small((self.sum + half) as u64, n) as i64
         } else {
-            -(div_u64_u32((half - self.sum) as u64, n) as i64)
+            -(div_u64_small((half - self.sum) as u64, n) as i64)
         };
         self.released += 1;
-        Some(Averaged { item, raw, mean })
+        Some(Released { slot, raw, mean })
     }
+}
+
+/// A value released by [`AverageFilter::push_in_place`] or
+/// [`AverageFilter::flush_in_place`]: where its payload is, the value and the
+/// average.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Released {
+    slot: usize,
+    /// The value that was pushed.
+    pub(crate) raw: i64,
+    /// The average over the window (rounded to nearest).
+    pub(crate) mean: i64,
 }
 
 #[cfg(test)]

@@ -118,6 +118,23 @@ pub(crate) const fn div_narrow(n: u64, d: u32) -> u32 {
     divlu((n >> 32) as u32, n as u32, d).0
 }
 
+/// `n / d` (floor) for a divisor below 2^16 (the average filter's window
+/// length): long division in base 2^16 where every partial dividend is below
+/// `d · 2^16`, so three hardware `UDIV`s and no correction steps. Larger
+/// divisors go to [`div_u64_u32`]; `u64::MAX` for `d = 0`.
+#[inline(always)]
+pub(crate) const fn div_u64_small(n: u64, d: u32) -> u64 {
+    if d == 0 || d >= 1 << 16 {
+        return div_u64_u32(n, d);
+    }
+    let (hi, lo) = ((n >> 32) as u32, n as u32);
+    let (q2, r) = (hi / d, hi % d);
+    let mid = (r << 16) | (lo >> 16);
+    let (q1, r) = (mid / d, mid % d);
+    let low = (r << 16) | (lo & 0xFFFF);
+    ((q2 as u64) << 32) | ((q1 << 16) + low / d) as u64
+}
+
 /// `n / d` (floor) for a 32-bit divisor; `u64::MAX` for `d = 0`.
 pub(crate) const fn div_u64_u32(n: u64, d: u32) -> u64 {
     if d == 0 {
@@ -225,6 +242,12 @@ mod tests {
         #[test]
         fn div_matches_u64_division(n in any::<u64>(), d in 1u32..) {
             prop_assert_eq!(div_u64_u32(n, d), n / d as u64);
+        }
+
+        #[test]
+        fn div_small_matches_u64_division(n in any::<u64>(), d in 0u32..70_000) {
+            let want = if d == 0 { u64::MAX } else { n / d as u64 };
+            prop_assert_eq!(div_u64_small(n, d), want);
         }
 
         #[test]

@@ -52,6 +52,7 @@ pub mod njiri;
 pub mod planner;
 #[cfg(feature = "std")]
 pub mod reference;
+mod ring;
 pub mod scheduler;
 mod softfloat;
 pub mod units;

@@ -50,7 +50,7 @@
 //! **No rule fires**: impossible with these partitions; the default output
 //! is 0, i.e. the configured minimum feed.
 
-use crate::fixmath::{div_narrow, shr_u64_low};
+use crate::fixmath::shr_u64_low;
 use crate::fuzzy::{
     AndMethod, Controller, ExactController, Implication, Inference, MembershipFn, OrMethod, Rule,
     SystemDef, Term, Variable,
@@ -289,27 +289,81 @@ impl VariationScale {
         self.floor.0 >= 0 && self.floor < self.clip && self.clip.0 <= I32F32::from_num(32767)
     }
 
-    /// `(clamp(Dκ, floor, clip) − floor) / (clip − floor)` in Q16.16. An
-    /// invalid scale (see [`Self::is_valid`]) gives 1 for any Dκ above the
-    /// floor.
+    /// `(clamp(Dκ, floor, clip) − floor) / (clip − floor)` in Q16.16,
+    /// rounded to nearest. An invalid scale (see [`Self::is_valid`]) gives 1
+    /// for any Dκ above the floor. (Per call this prepares the division; the
+    /// scheduler keeps a [`Normaliser`].)
     pub fn normalise(&self, variation: CurvaturePerMm) -> Fx {
-        let span = self.clip.0.to_bits().saturating_sub(self.floor.0.to_bits());
-        let v = variation
-            .0
-            .to_bits()
-            .max(self.floor.0.to_bits())
-            .min(self.clip.0.to_bits())
-            - self.floor.0.to_bits();
-        if span <= 0 || span >= 1 << 47 {
+        self.normaliser().normalise(variation)
+    }
+
+    /// The division by `clip − floor` prepared once (see [`Normaliser`]).
+    pub fn normaliser(&self) -> Normaliser {
+        let (floor, clip) = (self.floor.0.to_bits(), self.clip.0.to_bits());
+        let span = clip.saturating_sub(floor);
+        // Drop low bits until the divisor fits 32 bits (so the quotient of
+        // at most 2^16 comes from a 32-bit divisor), with 32-bit shifts only.
+        let k = (32 - span.leading_zeros() as i32).max(0) as u32;
+        let divisor = shr_u64_low(span as u64, k);
+        Normaliser {
+            floor,
+            clip,
+            divisible: span > 0 && span < 1 << 47 && divisor > 0,
+            k,
+            divisor,
+            reciprocal: u64::MAX / divisor.max(1) as u64,
+        }
+    }
+}
+
+/// [`VariationScale::normalise`] with its division by `clip − floor`
+/// replaced by a multiplication with a reciprocal computed once (a 64-by-32
+/// bit division costs ~60 instructions on the Cortex-M4, the product ~20).
+/// Exact: the reciprocal's estimate is at most one low and is corrected, so
+/// the result is the same rounded quotient, bit for bit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Normaliser {
+    floor: i64,
+    clip: i64,
+    /// `0 < clip − floor < 2^47`: otherwise any Dκ above the floor is 1.
+    divisible: bool,
+    /// `clip − floor` shifted right by `k` to fit 32 bits: the divisor.
+    k: u32,
+    divisor: u32,
+    /// `floor((2^64 − 1) / divisor)`.
+    reciprocal: u64,
+}
+
+impl Default for Normaliser {
+    fn default() -> Self {
+        VariationScale::PAPER.normaliser()
+    }
+}
+
+impl Normaliser {
+    /// `(clamp(Dκ, floor, clip) − floor) / (clip − floor)` in Q16.16 (see
+    /// [`VariationScale::normalise`]).
+    #[inline]
+    pub fn normalise(&self, variation: CurvaturePerMm) -> Fx {
+        let v = variation.0.to_bits().max(self.floor).min(self.clip) - self.floor;
+        if !self.divisible {
             return if v > 0 { Fx::ONE } else { Fx::ZERO };
         }
-        // Drop low bits until the divisor fits 32 bits (hardware division),
-        // with 32-bit shifts only.
-        let k = (32 - span.leading_zeros() as i32).max(0) as u32;
-        let (v, span) = (shr_u64_low(v as u64, k), shr_u64_low(span as u64, k));
-        // v <= span, so the quotient is at most 2^16 and the high word of
-        // the dividend is below the divisor: one long division.
-        let q = div_narrow(((v as u64) << 16) + (span / 2) as u64, span);
+        // v <= span, so after the shift v <= divisor and the dividend is
+        // below 2^49: the quotient is at most 2^16.
+        let v = shr_u64_low(v as u64, self.k);
+        let n = ((v as u64) << 16) + (self.divisor / 2) as u64;
+        // floor(n · r / 2^64) is q or q − 1 (r >= 2^64/d − 1, n < 2^64).
+        let (n1, n0) = (n >> 32, n & 0xFFFF_FFFF);
+        let (r1, r0) = (self.reciprocal >> 32, self.reciprocal & 0xFFFF_FFFF);
+        let mid = ((n0 * r0) >> 32) + ((n0 * r1) & 0xFFFF_FFFF) + ((n1 * r0) & 0xFFFF_FFFF);
+        let q = n1 * r1 + ((n0 * r1) >> 32) + ((n1 * r0) >> 32) + (mid >> 32);
+        let q = q.min(1 << 17) as u32;
+        let q = if n - q as u64 * self.divisor as u64 >= self.divisor as u64 {
+            q + 1
+        } else {
+            q
+        };
         Fx::from_bits(q.min(1 << 16) as i32)
     }
 }
@@ -317,6 +371,45 @@ impl VariationScale {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fixmath::div_narrow;
+    use proptest::prelude::*;
+
+    /// The normalisation by long division (the implementation before
+    /// [`Normaliser`]), for the bit-for-bit check.
+    fn normalise_by_division(s: &VariationScale, variation: CurvaturePerMm) -> Fx {
+        let span = s.clip.0.to_bits().saturating_sub(s.floor.0.to_bits());
+        let v = variation
+            .0
+            .to_bits()
+            .max(s.floor.0.to_bits())
+            .min(s.clip.0.to_bits())
+            - s.floor.0.to_bits();
+        if span <= 0 || span >= 1 << 47 {
+            return if v > 0 { Fx::ONE } else { Fx::ZERO };
+        }
+        let k = (32 - span.leading_zeros() as i32).max(0) as u32;
+        let (v, span) = (shr_u64_low(v as u64, k), shr_u64_low(span as u64, k));
+        let q = div_narrow(((v as u64) << 16) + (span / 2) as u64, span);
+        Fx::from_bits(q.min(1 << 16) as i32)
+    }
+
+    proptest! {
+        #[test]
+        fn normaliser_equals_long_division(
+            floor in 0i64..(1 << 48),
+            width in prop_oneof![1i64..64, 1i64..(1 << 20), 1i64..(1 << 48)],
+            v in prop_oneof![-(1i64 << 40)..(1 << 50), Just(i64::MAX), Just(i64::MIN)],
+        ) {
+            let s = VariationScale {
+                floor: CurvaturePerMm(I32F32::from_bits(floor)),
+                clip: CurvaturePerMm(I32F32::from_bits(floor + width)),
+            };
+            for x in [v, floor, floor + width, floor + width / 2, floor + width - 1] {
+                let k = CurvaturePerMm(I32F32::from_bits(x));
+                prop_assert_eq!(s.normalise(k), normalise_by_division(&s, k));
+            }
+        }
+    }
 
     /// The firmware's compact build infers exactly like [`CONTROLLER`].
     #[test]

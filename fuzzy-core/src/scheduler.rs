@@ -38,13 +38,13 @@
 //! programmed `F` word): the cap is a hard limit, applied after the filter.
 
 use fixed::types::I32F32;
-use heapless::Deque;
 
-use crate::average::AverageFilter;
+use crate::average::{AverageFilter, Released};
 use crate::curvature::{curvature_of_chords, Chord};
 use crate::fuzzy::FuzzyInference;
-use crate::lin2021::VariationScale;
+use crate::lin2021::{Normaliser, VariationScale};
 use crate::lookahead::{LookaheadWindow, Windowed};
+use crate::ring::Ring;
 use crate::units::{curvature_to_fx, CurvaturePerMm, FeedMmPerMin, Fx, Point3Mm, COORD_LIMIT_MM};
 
 /// A point of the commanded path.
@@ -171,15 +171,23 @@ impl core::fmt::Display for SchedulerError {
 
 /// Stage 1: curvature at each point (eq. 4-9), two points of latency. It
 /// sees positions only and emits one curvature per point, in order.
+///
+/// Plain fields with a count instead of `Option`s: the stage runs once per
+/// point and the options' copies and tests were a tenth of its cost.
 #[derive(Clone, Copy, Debug, Default)]
 struct CurvatureStage {
+    /// Distinct points seen on this path, saturating at 3 (`before` is
+    /// valid from 2, `last` from 1).
+    seen: u8,
     /// The two newest distinct points.
-    before: Option<Point3Mm>,
-    last: Option<Point3Mm>,
-    /// Chord `before → last`.
+    before: Point3Mm,
+    last: Point3Mm,
+    /// Chord `before → last` (valid when `seen >= 2`; never `None` then,
+    /// since consecutive points are distinct).
     chord: Option<Chord>,
-    /// Curvature of `before`, not yet emitted.
-    held: Option<CurvaturePerMm>,
+    /// Curvature of `before`, not yet emitted (valid when `has_held`).
+    held: CurvaturePerMm,
+    has_held: bool,
     /// Points accepted and not yet emitted (0..=2).
     pending: u8,
     /// While flushing: the curvature the last point inherits.
@@ -188,7 +196,7 @@ struct CurvatureStage {
 
 impl CurvatureStage {
     fn is_duplicate(&self, p: &Point3Mm) -> bool {
-        self.last.as_ref() == Some(p)
+        self.seen > 0 && self.last == *p
     }
 
     /// Add a point distinct from the previous one; returns the curvature of
@@ -196,28 +204,31 @@ impl CurvatureStage {
     fn push(&mut self, p: Point3Mm) -> Option<CurvaturePerMm> {
         self.pending += 1;
         let mut out = None;
-        if let Some(last) = self.last {
+        if self.seen > 0 {
             // Both points passed the ±100 m check.
-            let chord_out = Chord::between_in_range(&last, &p);
-            if let (Some(before), Some(chord_in), Some(chord_out)) =
-                (self.before, self.chord, chord_out)
-            {
-                let (a, b) = (before.to_bits(), p.to_bits());
-                let span = [
-                    b[0].wrapping_sub(a[0]),
-                    b[1].wrapping_sub(a[1]),
-                    b[2].wrapping_sub(a[2]),
-                ];
-                let k = curvature_of_chords(&chord_in, &chord_out, span);
-                // The first point has no curvature of its own: it takes its
-                // neighbour's (one-sided estimate).
-                out = Some(self.held.replace(k).unwrap_or(k));
-                self.pending -= 1;
+            let chord_out = Chord::between_in_range(&self.last, &p);
+            if self.seen >= 2 {
+                if let (Some(chord_in), Some(chord_out)) = (&self.chord, &chord_out) {
+                    let (a, b) = (self.before.to_bits(), p.to_bits());
+                    let span = [
+                        b[0].wrapping_sub(a[0]),
+                        b[1].wrapping_sub(a[1]),
+                        b[2].wrapping_sub(a[2]),
+                    ];
+                    let k = curvature_of_chords(chord_in, chord_out, span);
+                    // The first point has no curvature of its own: it takes
+                    // its neighbour's (one-sided estimate).
+                    out = Some(if self.has_held { self.held } else { k });
+                    self.held = k;
+                    self.has_held = true;
+                    self.pending -= 1;
+                }
             }
-            self.before = Some(last);
+            self.before = self.last;
             self.chord = chord_out;
         }
-        self.last = Some(p);
+        self.last = p;
+        self.seen = self.seen.saturating_add(1).min(3);
         out
     }
 
@@ -230,12 +241,25 @@ impl CurvatureStage {
             return None;
         }
         self.pending -= 1;
-        if let Some(k) = self.held.take() {
-            self.tail = k;
-            return Some(k);
+        if self.has_held {
+            self.has_held = false;
+            self.tail = self.held;
+            return Some(self.held);
         }
         Some(self.tail)
     }
+}
+
+/// A point in flight, as pushed. Plain scalars written field by field:
+/// moving whole `PathPoint`s compiled to out-of-line `memcpy` calls on the
+/// target (with the other moves, a sixth of the scheduler's cost).
+#[derive(Clone, Copy, Debug, Default)]
+struct Held {
+    pos: [i64; 3],
+    /// The feed cap's raw bits; negative for none (caps are checked to be
+    /// within `[0, 1e6]` mm/min).
+    cap: i64,
+    tag: u32,
 }
 
 /// What the feed stage keeps about a point while it is in the average
@@ -262,7 +286,9 @@ pub struct Scheduler<
     controller: C,
     scratch: C::Scratch,
     config: SchedulerConfig,
-    points: Deque<PathPoint, CAP>,
+    /// `config.variation`, prepared.
+    normaliser: Normaliser,
+    points: Ring<Held, CAP>,
     curvature: CurvatureStage,
     window: LookaheadWindow<(), WS>,
     filter: AverageFilter<Decided, AVG>,
@@ -299,7 +325,8 @@ impl<C: FuzzyInference<2>, const WS: usize, const AVG: usize, const CAP: usize>
         Ok(Scheduler {
             controller,
             scratch: C::Scratch::default(),
-            points: Deque::new(),
+            points: Ring::new(),
+            normaliser: config.variation.normaliser(),
             config,
             curvature: CurvatureStage::default(),
             window: LookaheadWindow::new(),
@@ -319,6 +346,7 @@ impl<C: FuzzyInference<2>, const WS: usize, const AVG: usize, const CAP: usize>
     /// Change the settings; applies to points decided from now on.
     pub fn set_config(&mut self, config: SchedulerConfig) -> Result<(), SchedulerError> {
         config.validate()?;
+        self.normaliser = config.variation.normaliser();
         self.config = config;
         Ok(())
     }
@@ -357,9 +385,13 @@ impl<C: FuzzyInference<2>, const WS: usize, const AVG: usize, const CAP: usize>
         }
         let pos = point.pos;
         // Cannot fail while CAP > LATENCY (checked at compile time).
-        if self.points.push_back(point).is_err() {
+        let Some(h) = self.points.push_slot() else {
             return Err(SchedulerError::BufferFull);
-        }
+        };
+        let b = pos.to_bits();
+        (h.pos[0], h.pos[1], h.pos[2]) = (b[0], b[1], b[2]);
+        h.cap = point.feed_cap.map_or(-1, |c| c.0.to_bits());
+        h.tag = point.tag;
         self.next_index = self.next_index.wrapping_add(1);
         let Some(k) = self.curvature.push(pos) else {
             return Ok(None);
@@ -397,8 +429,8 @@ impl<C: FuzzyInference<2>, const WS: usize, const AVG: usize, const CAP: usize>
                 }
                 continue;
             }
-            if let Some(a) = self.filter.flush() {
-                if let Some(s) = self.complete(a) {
+            if let Some(r) = self.filter.flush_in_place() {
+                if let Some(s) = self.complete(r) {
                     return Some(s);
                 }
                 continue;
@@ -446,7 +478,7 @@ impl<C: FuzzyInference<2>, const WS: usize, const AVG: usize, const CAP: usize>
     fn decide(&mut self, w: Windowed<()>) -> Option<ScheduledPoint> {
         let inputs = [
             curvature_to_fx(w.curvature),
-            self.config.variation.normalise(w.variation),
+            self.normaliser.normalise(w.variation),
         ];
         let e = self.controller.infer(&mut self.scratch, inputs);
         let fraction = e.output.clamp(Fx::ZERO, Fx::ONE);
@@ -457,29 +489,36 @@ impl<C: FuzzyInference<2>, const WS: usize, const AVG: usize, const CAP: usize>
             fraction,
             fired: e.fired,
         };
-        let a = self.filter.push(decided, feed.0.to_bits())?;
-        self.complete(a)
+        let r = self.filter.push_in_place(decided, feed.0.to_bits())?;
+        self.complete(r)
     }
 
     /// The point leaving the filter, with its feed capped.
-    fn complete(&mut self, a: crate::average::Averaged<Decided>) -> Option<ScheduledPoint> {
-        let point = self.points.pop_front()?;
-        let mut feed = FeedMmPerMin(I32F32::from_bits(a.mean));
-        if let Some(cap) = point.feed_cap {
+    fn complete(&mut self, r: Released) -> Option<ScheduledPoint> {
+        let h = self.points.front()?;
+        let d = self.filter.item(&r)?;
+        let feed_cap = (h.cap >= 0).then_some(FeedMmPerMin(I32F32::from_bits(h.cap)));
+        let mut feed = FeedMmPerMin(I32F32::from_bits(r.mean));
+        if let Some(cap) = feed_cap {
             feed = feed.min(cap);
         }
-        let index = self.released;
-        self.released = self.released.wrapping_add(1);
-        Some(ScheduledPoint {
-            point,
-            index,
-            curvature: a.item.curvature,
-            variation: a.item.variation,
-            fraction: a.item.fraction,
-            fuzzy_feed: FeedMmPerMin(I32F32::from_bits(a.raw)),
+        let out = ScheduledPoint {
+            point: PathPoint {
+                pos: Point3Mm::from_bits(h.pos[0], h.pos[1], h.pos[2]),
+                feed_cap,
+                tag: h.tag,
+            },
+            index: self.released,
+            curvature: d.curvature,
+            variation: d.variation,
+            fraction: d.fraction,
+            fuzzy_feed: FeedMmPerMin(I32F32::from_bits(r.raw)),
             feed,
-            fired: a.item.fired,
-        })
+            fired: d.fired,
+        };
+        self.points.drop_front();
+        self.released = self.released.wrapping_add(1);
+        Some(out)
     }
 }
 

@@ -888,22 +888,25 @@ impl<const N: usize> Motion<N> {
 
     /// The commanded position: node + direction × offset.
     fn position(&mut self) -> Point3Mm {
-        let Some(n) = self.nodes.get(self.seg).copied() else {
+        // Scalars, not whole-`Node` or whole-`Point3Mm` copies: those
+        // compiled to the image's only `memmove` call (1.5 KB of library
+        // code on the target).
+        let Some(n) = self.nodes.get(self.seg) else {
             return Point3Mm::ORIGIN;
         };
-        let Some(m) = self.nodes.get(self.seg + 1).copied() else {
-            return n.pos;
+        let (p, n_s) = (n.pos.to_bits(), n.s);
+        let Some(m) = self.nodes.get(self.seg + 1) else {
+            return Point3Mm::from_bits(p[0], p[1], p[2]);
         };
+        let (q, m_s) = (m.pos.to_bits(), m.s);
         if !self.seg_dir_valid {
-            let (b, a) = (m.pos.to_bits(), n.pos.to_bits());
-            self.seg_dir = unit(zip3(b, a, i64::saturating_sub)).map_or([0; 3], |(d, _)| d);
+            self.seg_dir = unit(zip3(q, p, i64::saturating_sub)).map_or([0; 3], |(d, _)| d);
             self.seg_dir_valid = true;
         }
-        if self.x >= m.s {
-            return m.pos;
+        if self.x >= m_s {
+            return Point3Mm::from_bits(q[0], q[1], q[2]);
         }
-        let off = (self.x - n.s).max(0);
-        let p = n.pos.to_bits();
+        let off = (self.x - n_s).max(0);
         let dir = self.seg_dir;
         let [x, y, z] = zip3(p, dir, |p, d| {
             p.saturating_add(((d as i128 * off as i128) >> 30) as i64)
