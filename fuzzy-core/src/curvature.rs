@@ -88,7 +88,9 @@ struct Scaled {
 }
 
 impl Scaled {
-    /// `None` for the zero vector.
+    /// `None` for the zero vector. (Inlined: two calls per point, and the
+    /// returned `Option` costs as much as the body on the target.)
+    #[inline(always)]
     fn new(d: [i64; 3]) -> Option<Scaled> {
         let m = max_abs(&d);
         if m == 0 {
@@ -112,6 +114,7 @@ impl Scaled {
     }
 
     /// Squared length in raw units².
+    #[inline(always)]
     fn norm_sq(&self) -> Sf {
         let q: u64 = self.n.iter().map(|&c| (c as i64 * c as i64) as u64).sum();
         Sf::from_u64_inline(q).scale2(2 * self.shift)
@@ -192,6 +195,13 @@ fn max_abs(c: &[i64; 3]) -> u64 {
         .max(c[2].unsigned_abs())
 }
 
+/// `(x >> s)²` for `|x >> s| < 2^31`.
+#[inline(always)]
+fn square_shifted(x: i64, s: u32) -> u64 {
+    let v = sar_i64_low(x, s).unsigned_abs() as u64;
+    v * v
+}
+
 /// Squared norm of a vector of `i64` (the cross product).
 fn norm_sq_i64(c: [i64; 3]) -> Sf {
     let m = max_abs(&c);
@@ -200,11 +210,8 @@ fn norm_sq_i64(c: [i64; 3]) -> Sf {
     }
     // Scale so every component fits 31 bits: squares sum below 2^64.
     let shift = (64 - m.leading_zeros() as i32 - 31).max(0);
-    let sq = |x: i64| {
-        let s = sar_i64_low(x, shift as u32).unsigned_abs() as u64;
-        s * s
-    };
-    let q = sq(c[0]) + sq(c[1]) + sq(c[2]);
+    let s = shift as u32;
+    let q = square_shifted(c[0], s) + square_shifted(c[1], s) + square_shifted(c[2], s);
     Sf::from_u64_inline(q).scale2(2 * shift)
 }
 
