@@ -437,7 +437,11 @@ impl<'a, const NI: usize, const NT: usize, const NO: usize, const S: usize>
         while j + 1 < n && mfs.get(j).is_some_and(|mf| mf.upper_end() < x) {
             j += 1;
         }
-        let first = mfs.get(j).map_or(0, |mf| mf.degree(x));
+        // `match`, not `map_or`: the latter stayed an out-of-line call.
+        let first = match mfs.get(j) {
+            Some(mf) => mf.degree(x),
+            None => 0,
+        };
         let next = match mfs.get(j + 1) {
             Some(mf) if j + 1 < n => mf.degree(x),
             _ => 0,
@@ -461,19 +465,11 @@ impl<'a, const NI: usize, const NT: usize, const NO: usize, const S: usize>
         };
         // Each fired rule adds its strength to its consequent (max);
         // `lowest..=highest` is the range of fired consequents.
-        let mut strength = [0i32; NO];
-        let (mut lowest, mut highest) = (NO, 0);
-        let mut best = 0;
-        let mut fire = |w: i32, code: usize| {
-            if w > 0 {
-                let then = grid.get(code).copied().unwrap_or(0) as usize;
-                if let Some(s) = strength.get_mut(then) {
-                    *s = (*s).max(w);
-                    lowest = lowest.min(then);
-                    highest = highest.max(then);
-                }
-                best = best.max(w);
-            }
+        let mut f = Fired {
+            strength: [0i32; NO],
+            lowest: NO,
+            highest: 0,
+            best: 0,
         };
         if NI == 2 {
             // Two inputs (Lin's controller, the scheduler's hot path): the
@@ -484,14 +480,14 @@ impl<'a, const NI: usize, const NT: usize, const NO: usize, const S: usize>
             let (j1, a1, b1) = self.candidates(1, input(1));
             let (s0, s1) = (stride(0), stride(1));
             let base = j0 * s0 + j1 * s1;
-            fire(a0.min(a1), base);
+            f.fire(grid, a0.min(a1), base);
             if b0 > 0 {
-                fire(b0.min(a1), base + s0);
+                f.fire(grid, b0.min(a1), base + s0);
             }
             if b1 > 0 {
-                fire(a0.min(b1), base + s1);
+                f.fire(grid, a0.min(b1), base + s1);
                 if b0 > 0 {
-                    fire(b0.min(b1), base + s0 + s1);
+                    f.fire(grid, b0.min(b1), base + s0 + s1);
                 }
             }
         } else {
@@ -528,13 +524,19 @@ impl<'a, const NI: usize, const NT: usize, const NO: usize, const S: usize>
                         w = w.min(d[0]);
                     }
                 }
-                fire(w, code);
+                f.fire(grid, w, code);
                 if mask == 0 {
                     break;
                 }
                 mask = (mask - 1) & second;
             }
         }
+        let Fired {
+            strength,
+            lowest,
+            highest,
+            best,
+        } = f;
         if best == 0 || lowest > highest {
             return default;
         }
@@ -878,6 +880,33 @@ impl<const NI: usize, const NT: usize, const NO: usize> FuzzyInference<NI>
     type Scratch = ();
     fn infer(&self, _: &mut (), inputs: [Fx; NI]) -> Evaluation {
         self.evaluate(inputs)
+    }
+}
+
+/// The fired rules of one inference: each adds its strength to its
+/// consequent (max); `lowest..=highest` is the range of fired consequents,
+/// `best` the largest strength.
+struct Fired<const NO: usize> {
+    strength: [i32; NO],
+    lowest: usize,
+    highest: usize,
+    best: i32,
+}
+
+impl<const NO: usize> Fired<NO> {
+    /// Rule `code` of `grid` fired with strength `w` (inlined: a closure
+    /// here stayed an out-of-line call per rule).
+    #[inline(always)]
+    fn fire(&mut self, grid: &[u8], w: i32, code: usize) {
+        if w > 0 {
+            let then = grid.get(code).copied().unwrap_or(0) as usize;
+            if let Some(s) = self.strength.get_mut(then) {
+                *s = (*s).max(w);
+                self.lowest = self.lowest.min(then);
+                self.highest = self.highest.max(then);
+            }
+            self.best = self.best.max(w);
+        }
     }
 }
 
