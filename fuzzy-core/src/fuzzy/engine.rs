@@ -531,16 +531,11 @@ impl<'a, const NI: usize, const NT: usize, const NO: usize, const S: usize>
                 mask = (mask - 1) & second;
             }
         }
-        let Fired {
-            strength,
-            lowest,
-            highest,
-            best,
-        } = f;
-        if best == 0 || lowest > highest {
+        let best = f.best;
+        if best == 0 || f.lowest > f.highest {
             return default;
         }
-        match chain.centroid_q30(&strength, lowest, highest) {
+        match chain.centroid_q30(&f.strength, f.lowest, f.highest) {
             Some(u) => {
                 let span = (self.out_max as i64 - self.out_min as i64) as u64;
                 let offset = (span * u as u64 + (1 << 29)) >> 30;
