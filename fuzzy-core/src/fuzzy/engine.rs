@@ -88,6 +88,10 @@ const GRID_MAX: usize = 256;
 pub struct Controller<'a, const NI: usize, const NT: usize, const NO: usize, const S: usize = 101> {
     def: &'a SystemDef<'a, NI>,
     inputs: [[CompiledMf; NT]; NI],
+    /// Right end of each input term's support (raw; `i32::MAX` if
+    /// unbounded or unused): the partition path's scan for the active terms
+    /// reads these instead of matching on every term.
+    upper: [[i32; NT]; NI],
     input_terms: [u8; NI],
     input_range: [(i32, i32); NI],
     output_terms: u8,
@@ -126,6 +130,7 @@ impl<'a, const NI: usize, const NT: usize, const NO: usize, const S: usize>
         let mut c = Controller {
             def,
             inputs: [[CompiledMf::UNUSED; NT]; NI],
+            upper: [[i32::MAX; NT]; NI],
             input_terms: [0; NI],
             input_range: [(0, 0); NI],
             output_terms: 0,
@@ -180,6 +185,7 @@ impl<'a, const NI: usize, const NT: usize, const NO: usize, const S: usize>
                         })
                     }
                 };
+                c.upper[i][t] = c.inputs[i][t].upper_end();
                 t += 1;
             }
             i += 1;
@@ -424,8 +430,9 @@ impl<'a, const NI: usize, const NT: usize, const NO: usize, const S: usize>
     /// when there is none).
     #[inline(always)]
     fn candidates(&self, i: usize, x: Fx) -> (usize, i32, i32) {
-        let (Some(mfs), Some(&terms), Some(&(lo, hi))) = (
+        let (Some(mfs), Some(upper), Some(&terms), Some(&(lo, hi))) = (
             self.inputs.get(i),
+            self.upper.get(i),
             self.input_terms.get(i),
             self.input_range.get(i),
         ) else {
@@ -434,7 +441,7 @@ impl<'a, const NI: usize, const NT: usize, const NO: usize, const S: usize>
         let n = (terms as usize).min(NT);
         let x = x.to_bits().max(lo).min(hi);
         let mut j = 0;
-        while j + 1 < n && mfs.get(j).is_some_and(|mf| mf.upper_end() < x) {
+        while j + 1 < n && upper.get(j).is_some_and(|&u| u < x) {
             j += 1;
         }
         // `match`, not `map_or`: the latter stayed an out-of-line call.

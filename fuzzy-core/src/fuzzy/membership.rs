@@ -281,14 +281,17 @@ impl CompiledMf {
                 up,
                 down,
             } => {
+                // On an edge the distance to its foot is in [0, 2^32) and
+                // the reciprocal non-negative: an unsigned 32×64-bit product,
+                // and only the upper clamp can apply.
                 if x < a || x > d {
                     0
                 } else if x < b {
-                    clamp_degree(((x as i64 - a as i64) * up + (1 << 31)) >> 32)
+                    edge_degree(x.wrapping_sub(a) as u32, up)
                 } else if x <= c {
                     ONE
                 } else {
-                    clamp_degree(((d as i64 - x as i64) * down + (1 << 31)) >> 32)
+                    edge_degree(d.wrapping_sub(x) as u32, down)
                 }
             }
             _ => self.smooth_degree(x),
@@ -365,10 +368,13 @@ impl CompiledMf {
     }
 }
 
-const fn clamp_degree(v: i64) -> i32 {
-    if v < 0 {
-        0
-    } else if v > ONE as i64 {
+/// `min(1, round(dist · recip / 2^32))` in Q16.16 for `recip = 2^48/width`
+/// (`recip >= 0`; 0 for a vertical edge), for `dist` below the edge's
+/// width (so the product stays below 2^49).
+#[inline(always)]
+const fn edge_degree(dist: u32, recip: i64) -> i32 {
+    let v = (dist as u64).wrapping_mul(recip as u64).wrapping_add(1 << 31) >> 32;
+    if v > ONE as u64 {
         ONE
     } else {
         v as i32
