@@ -126,9 +126,9 @@ impl Scaled {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Chord {
     v: Scaled,
-    /// Squared length, raw units² (exact to 32 bits).
-    sq: Sf,
-    /// Length for the curvature: `sq / sqrt(sq)`, to ~2^-29 relative.
+    /// Length for the curvature: `|d|² / sqrt(|d|²)`, to ~2^-29 relative.
+    /// (The squared length is not kept: the scheduler copies a chord per
+    /// point, and only [`Self::length_mm`] needs it.)
     len: Sf,
 }
 
@@ -151,7 +151,6 @@ impl Chord {
         let sq = v.norm_sq();
         Some(Chord {
             len: sq.mul_inline(sq.rsqrt()?),
-            sq,
             v,
         })
     }
@@ -159,7 +158,7 @@ impl Chord {
     /// Length in mm (saturating at the I32F32 maximum), from a correctly
     /// rounded square root (so a 5 mm chord is 5 mm to the last bit).
     pub fn length_mm(&self) -> fixed::types::I32F32 {
-        fixed::types::I32F32::from_bits(self.sq.sqrt().to_i64_scaled(0))
+        fixed::types::I32F32::from_bits(self.v.norm_sq().sqrt().to_i64_scaled(0))
     }
 }
 
@@ -260,7 +259,7 @@ pub(crate) fn curvature_of_chords(
     };
     // Work on κ²: squared norms need no square root, so the only roots are
     // the new chord's length and the final one (both reciprocal roots).
-    let span = ta.add(tb);
+    let span = ta.add_inline(tb);
     let span_sq = span.mul_inline(span);
     let ta_tb = ta.mul_inline(tb);
     let ta_tb_sq = ta_tb.mul_inline(ta_tb);

@@ -106,9 +106,12 @@ impl<T: Copy + Default, const WS: usize> LookaheadWindow<T, WS> {
     fn release(&mut self) -> Option<Windowed<T>> {
         let (item, curvature) = self.pending.pop_front()?;
         let index = self.next_out;
-        let variation = self.candidates.front().map_or(curvature, |&(_, k)| k);
-        if self.candidates.front().is_some_and(|&(i, _)| i == index) {
-            self.candidates.pop_front();
+        let (variation, passed) = match self.candidates.front() {
+            Some(&(i, k)) => (k, i == index),
+            None => (curvature, false),
+        };
+        if passed {
+            self.candidates.drop_front();
         }
         self.next_out = index.wrapping_add(1);
         Some(Windowed {

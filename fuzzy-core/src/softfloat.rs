@@ -121,6 +121,12 @@ impl Sf {
 
     /// Sum (both operands are positive), truncated.
     pub(crate) const fn add(self, o: Sf) -> Sf {
+        self.add_inline(o)
+    }
+
+    /// [`Self::add`], inlined into the caller (the curvature's hot path).
+    #[inline(always)]
+    pub(crate) const fn add_inline(self, o: Sf) -> Sf {
         if self.mant == 0 {
             return o;
         }

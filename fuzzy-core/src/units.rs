@@ -74,6 +74,7 @@ impl Point3Mm {
     }
 
     /// Whether every coordinate is within ±[`COORD_LIMIT_MM`].
+    #[inline(always)]
     pub fn within_limits(self) -> bool {
         // |c| <= lim as one unsigned comparison: c + lim in [0, 2·lim].
         const LIM: u64 = (COORD_LIMIT_MM as u64) << 32;
