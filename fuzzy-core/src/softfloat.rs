@@ -4,7 +4,9 @@
 //! intermediate products span ~2^200).
 //!
 //! Values are positive: `mant · 2^exp` with `mant` normalised to
-//! `[2^31, 2^32)` (or zero). Every operation truncates to 32 significant bits,
+//! `[2^31, 2^32)`, or zero: `mant = 0` with any exponent (every operation
+//! tests the mantissa, so products and scalings need not normalise a zero).
+//! Every operation truncates to 32 significant bits,
 //! so each step has a relative error below 2^-31 ≈ 4.7e-10. Only integer
 //! instructions are used, so the host and a Cortex-M give the same bits.
 //!
@@ -65,11 +67,8 @@ impl Sf {
         self.mant == 0
     }
 
-    /// `self · 2^k` (exact).
+    /// `self · 2^k` (exact; zero stays a zero mantissa).
     pub(crate) const fn scale2(self, k: i32) -> Sf {
-        if self.mant == 0 {
-            return Sf::ZERO;
-        }
         Sf {
             mant: self.mant,
             exp: self.exp.saturating_add(k),
@@ -85,12 +84,11 @@ impl Sf {
     /// products: a call costs as much as the product on a Cortex-M4).
     #[inline(always)]
     pub(crate) const fn mul_inline(self, o: Sf) -> Sf {
+        // A zero operand gives a zero mantissa (with some exponent), which
+        // every operation reads as zero: no test needed here.
         let p = self.mant as u64 * o.mant as u64;
-        if p == 0 {
-            return Sf::ZERO;
-        }
         let e = self.exp.saturating_add(o.exp);
-        // p is in [2^62, 2^64): one normalising step.
+        // p is in [2^62, 2^64) (or 0): one normalising step.
         if p >> 63 != 0 {
             Sf {
                 mant: (p >> 32) as u32,

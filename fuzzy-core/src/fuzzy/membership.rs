@@ -373,7 +373,10 @@ impl CompiledMf {
 /// width (so the product stays below 2^49).
 #[inline(always)]
 const fn edge_degree(dist: u32, recip: i64) -> i32 {
-    let v = (dist as u64).wrapping_mul(recip as u64).wrapping_add(1 << 31) >> 32;
+    let v = (dist as u64)
+        .wrapping_mul(recip as u64)
+        .wrapping_add(1 << 31)
+        >> 32;
     if v > ONE as u64 {
         ONE
     } else {
