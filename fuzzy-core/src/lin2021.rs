@@ -426,6 +426,26 @@ mod tests {
         }
     }
 
+    /// Through the scheduler's interface (one scratch kept across
+    /// inferences) the compact controller gives the same outputs, and the
+    /// scratch is left cleared.
+    #[test]
+    fn compact_controller_with_kept_scratch_is_the_same() {
+        use crate::fuzzy::{ExactScratch, FuzzyInference};
+        let mut scratch = ExactScratch::default();
+        for i in (-10..=340).step_by(3) {
+            for j in -10..=130 {
+                let x = [Fx::from_num(i) / 100, Fx::from_num(j) / 100];
+                assert_eq!(
+                    COMPACT.infer(&mut scratch, x),
+                    CONTROLLER.evaluate(x),
+                    "{x:?}"
+                );
+            }
+        }
+        assert!(format!("{scratch:?}").contains("[0, 0, 0, 0, 0, 0, 0]"));
+    }
+
     fn feed(k: f64, dk_norm: f64) -> f64 {
         CONTROLLER
             .evaluate([Fx::from_num(k), Fx::from_num(dk_norm)])

@@ -640,13 +640,15 @@ mod tests {
         let xs = [
             -2.0, -1.5, -1.1, -0.75, -0.3, 0.0, 0.2, 0.6, 1.0, 1.4, 1.5, 3.0,
         ];
+        // One scratch kept across inferences, as the firmware does.
+        let mut scratch = crate::fuzzy::ExactScratch::default();
         for a in xs {
             for b in xs {
                 for c in xs {
                     for d in [-1.5, -0.4, 0.0, 0.9, 1.5] {
                         let x = [a, b, c, d].map(Fx::from_num);
                         let want = CONTROLLER.evaluate(x);
-                        assert_eq!(COMPACT.infer(&mut (), x), want, "{x:?}");
+                        assert_eq!(COMPACT.infer(&mut scratch, x), want, "{x:?}");
                     }
                 }
             }

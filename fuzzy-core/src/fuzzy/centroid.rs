@@ -226,7 +226,11 @@ impl<const NO: usize> Chain<NO> {
         last: usize,
     ) -> Option<i64> {
         let end = self.n.min(NO).min(last.saturating_add(1));
-        let (mut area, mut moment) = (0i64, 0i64);
+        // 32-bit sums: after term k they hold the union of the clipped terms
+        // first..=k (area and moment at most 1, 2^29 in Q29) plus at most one
+        // term not yet reduced by its overlap (another 2^29), so they stay
+        // below 2^31; saturating anyway (one instruction on the Cortex-M4).
+        let (mut area, mut moment) = (0i32, 0i32);
         // Strengths in Q29, and the previous one for the overlap term (0
         // before `first`).
         let mut prev = 0i32;
@@ -235,8 +239,8 @@ impl<const NO: usize> Chain<NO> {
             let s = strength[k].clamp(0, 1 << 16) << 13;
             if s > 0 {
                 let (a, m) = self.terms[k].clipped(s);
-                area += a as i64;
-                moment += m as i64;
+                area = area.saturating_add(a);
+                moment = moment.saturating_add(m);
             }
             // Subtract ∫min(σ, μₖ₋₁, μₖ) with σ = min(sₖ₋₁, sₖ).
             let sigma = prev.min(s);
@@ -249,8 +253,8 @@ impl<const NO: usize> Chain<NO> {
                         ((sigma as i64 * ov.inv_height) >> 29) as i32
                     };
                     let (a, m) = ov.tent.clipped(t);
-                    area -= mul(ov.height, a) as i64;
-                    moment -= mul(ov.height, m) as i64;
+                    area = area.saturating_sub(mul(ov.height, a));
+                    moment = moment.saturating_sub(mul(ov.height, m));
                 }
             }
             prev = s;
@@ -262,8 +266,8 @@ impl<const NO: usize> Chain<NO> {
         // moment/area in Q30 (at most 2^30): area <= 2 in Q29 < 2^31 and
         // moment <= area, so the high word of moment·2^30 is below area
         // and one 64-by-32-bit long division gives the quotient.
+        let moment = (moment.clamp(0, area) as u64) << 30;
         let area = area as u32;
-        let moment = (moment.clamp(0, area as i64) as u64) << 30;
         Some(div_narrow(moment, area) as i64)
     }
 }

@@ -461,6 +461,13 @@ impl<'a, const NI: usize, const NT: usize, const NO: usize, const S: usize>
     /// fire; each adds its strength to its consequent; the chain's closed-form
     /// centroid follows. Same results as the general path, bit for bit.
     fn infer_partition_grid(&self, inputs: [Fx; NI]) -> Evaluation {
+        self.infer_partition_grid_in(&mut [0; NO], inputs)
+    }
+
+    /// [`Self::infer_partition_grid`] with the consequents' strengths in
+    /// `strength`, which must be all zero and is left all zero (a fresh
+    /// local array cost a `memset` call per inference on the target).
+    fn infer_partition_grid_in(&self, strength: &mut [i32; NO], inputs: [Fx; NI]) -> Evaluation {
         let def = self.def;
         let default = Evaluation {
             output: def.default_output,
@@ -473,7 +480,7 @@ impl<'a, const NI: usize, const NT: usize, const NO: usize, const S: usize>
         // Each fired rule adds its strength to its consequent (max);
         // `lowest..=highest` is the range of fired consequents.
         let mut f = Fired {
-            strength: [0i32; NO],
+            strength,
             lowest: NO,
             highest: 0,
             best: 0,
@@ -542,7 +549,15 @@ impl<'a, const NI: usize, const NT: usize, const NO: usize, const S: usize>
         if best == 0 || f.lowest > f.highest {
             return default;
         }
-        match chain.centroid_q30(&f.strength, f.lowest, f.highest) {
+        let centroid = chain.centroid_q30(f.strength, f.lowest, f.highest);
+        // Every fired consequent is in lowest..=highest. (The zero goes
+        // through `black_box` so that the loop stays a few stores instead
+        // of becoming a `memset` call.)
+        let zero = core::hint::black_box(0);
+        for s in f.strength.iter_mut().take(f.highest + 1).skip(f.lowest) {
+            *s = zero;
+        }
+        match centroid {
             Some(u) => {
                 let span = (self.out_max as i64 - self.out_min as i64) as u64;
                 let offset = (span * u as u64 + (1 << 29)) >> 30;
@@ -879,23 +894,41 @@ impl<'a, const NI: usize, const NT: usize, const NO: usize> ExactController<'a, 
 impl<const NI: usize, const NT: usize, const NO: usize> FuzzyInference<NI>
     for ExactController<'_, NI, NT, NO>
 {
-    type Scratch = ();
-    fn infer(&self, _: &mut (), inputs: [Fx; NI]) -> Evaluation {
-        self.evaluate(inputs)
+    type Scratch = ExactScratch<NO>;
+    fn infer(&self, scratch: &mut ExactScratch<NO>, inputs: [Fx; NI]) -> Evaluation {
+        if self.exact {
+            self.controller
+                .infer_partition_grid_in(&mut scratch.strength, inputs)
+        } else {
+            self.evaluate(inputs)
+        }
+    }
+}
+
+/// Working memory of an [`ExactController`]: the consequents' strengths,
+/// all zero between inferences.
+#[derive(Clone, Debug)]
+pub struct ExactScratch<const NO: usize> {
+    strength: [i32; NO],
+}
+
+impl<const NO: usize> Default for ExactScratch<NO> {
+    fn default() -> Self {
+        ExactScratch { strength: [0; NO] }
     }
 }
 
 /// The fired rules of one inference: each adds its strength to its
 /// consequent (max); `lowest..=highest` is the range of fired consequents,
 /// `best` the largest strength.
-struct Fired<const NO: usize> {
-    strength: [i32; NO],
+struct Fired<'s, const NO: usize> {
+    strength: &'s mut [i32; NO],
     lowest: usize,
     highest: usize,
     best: i32,
 }
 
-impl<const NO: usize> Fired<NO> {
+impl<const NO: usize> Fired<'_, NO> {
     /// Rule `code` of `grid` fired with strength `w` (inlined: a closure
     /// here stayed an out-of-line call per rule).
     #[inline(always)]

@@ -44,7 +44,7 @@ pub mod membership;
 pub mod rule;
 pub mod system;
 
-pub use engine::{Controller, Evaluation, ExactController, FuzzyInference, Scratch};
+pub use engine::{Controller, Evaluation, ExactController, ExactScratch, FuzzyInference, Scratch};
 pub use membership::{MembershipFn, MfError};
 pub use rule::{Antecedent, Connective, Rule};
 pub use system::{
