@@ -134,7 +134,10 @@ impl<T: Copy + Default, const N: usize> Ring<T, N> {
     /// The oldest value.
     #[inline(always)]
     pub(crate) fn front(&self) -> Option<&T> {
-        self.get(0)
+        if self.len == 0 {
+            return None;
+        }
+        self.slots.get(self.start as usize)
     }
 
     /// The newest value.

@@ -51,6 +51,19 @@ impl Sf {
         }
     }
 
+    /// [`Self::from_u64_exp_inline`] for a 32-bit `x` (one shift left).
+    #[inline(always)]
+    pub(crate) const fn from_u32_exp_inline(x: u32, exp: i32) -> Sf {
+        if x == 0 {
+            return Sf::ZERO;
+        }
+        let lz = x.leading_zeros();
+        Sf {
+            mant: x << lz,
+            exp: exp.saturating_sub(lz as i32),
+        }
+    }
+
     /// `x` as a soft float.
     pub(crate) const fn from_u64(x: u64) -> Sf {
         Sf::from_u64_exp(x, 0)
@@ -189,10 +202,7 @@ impl Sf {
             (self.mant >> 1, self.exp.saturating_add(31))
         };
         let r = rsqrt_q31(a);
-        Some(Sf::from_u64_exp_inline(
-            r as u64,
-            (-31i32).saturating_sub(p >> 1),
-        ))
+        Some(Sf::from_u32_exp_inline(r, (-31i32).saturating_sub(p >> 1)))
     }
 
     /// `self · 2^k` as an integer, rounded to nearest, saturating at
@@ -418,6 +428,12 @@ mod tests {
 
     #[test]
     fn conversions() {
+        for x in [1u32, 2, 3, 0x7FFF_FFFF, 0x8000_0000, u32::MAX] {
+            for e in [-70, 0, 5] {
+                assert_eq!(Sf::from_u32_exp_inline(x, e), Sf::from_u64_exp(x as u64, e));
+            }
+        }
+        assert!(Sf::from_u32_exp_inline(0, 3).is_zero());
         assert_eq!(Sf::from_u64(1).to_i64_scaled(0), 1);
         assert_eq!(Sf::from_u64(3).to_i64_scaled(-1), 2); // 1.5 rounds to 2
         assert_eq!(Sf::from_u64(5).to_i64_scaled(-2), 1); // 1.25 rounds to 1
