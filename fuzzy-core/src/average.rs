@@ -137,6 +137,7 @@ impl<T: Copy + Default, const N: usize> AverageFilter<T, N> {
         self.released = 0;
     }
 
+    #[inline(always)]
     fn release(&mut self) -> Option<Released> {
         if self.released >= self.pushed {
             return None;

@@ -103,6 +103,7 @@ impl<T: Copy + Default, const WS: usize> LookaheadWindow<T, WS> {
         self.next_out = 0;
     }
 
+    #[inline(always)]
     fn release(&mut self) -> Option<Windowed<T>> {
         let (item, curvature) = self.pending.pop_front()?;
         let index = self.next_out;

@@ -4,7 +4,8 @@
 //! derives its length from them, and reaches its capacity through a storage
 //! abstraction; on the Cortex-M4 each push or pop cost 30-60 instructions in
 //! the scheduler's hot path. This ring keeps a start index and a length
-//! (both `u32`), wraps by one comparison, and stores plain values (`T:
+//! (both `u32`), wraps with `% N` (a multiplication for a constant `N`,
+//! after which the slot index is provably in bounds), and stores plain values (`T:
 //! Copy + Default`, so no `unsafe` for uninitialised slots). Every access
 //! is checked (`get`), so nothing here can panic.
 
@@ -55,12 +56,7 @@ impl<T: Copy + Default, const N: usize> Ring<T, N> {
     /// Slot of the `i`-th value from the oldest (`i < N`).
     #[inline(always)]
     fn slot(&self, i: u32) -> usize {
-        let s = self.start as usize + i as usize;
-        if s >= N {
-            s - N
-        } else {
-            s
-        }
+        (self.start as usize + i as usize) % N
     }
 
     /// Append `v`; gives it back when full.
