@@ -12,7 +12,7 @@
 //! | Mamdani controller, centroid | [`lin2021`] on [`fuzzy`] | 2.7.1, Table 6, eq. 11 |
 //! | average filter | [`average`] | 2.7.2 |
 //!
-//! `no_std`, no heap (`heapless`, const generics), no floating point on the
+//! `no_std`, no heap (fixed rings, `heapless`, const generics), no floating point on the
 //! target, no panics: errors are values. The firmware and the host simulator
 //! run this same code and get the same bits.
 //!
