@@ -56,7 +56,11 @@ impl<T: Copy + Default, const N: usize> Ring<T, N> {
     /// Slot of the `i`-th value from the oldest (`i < N`).
     #[inline(always)]
     fn slot(&self, i: u32) -> usize {
-        (self.start as usize + i as usize) % N
+        // `checked_rem`: folds to `% N` for the crate's N >= 1, and N = 0 cannot
+        // panic.
+        (self.start as usize + i as usize)
+            .checked_rem(N)
+            .unwrap_or(0)
     }
 
     /// Append `v`; gives it back when full.
@@ -154,6 +158,20 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
     use std::collections::VecDeque;
+
+    #[test]
+    fn a_ring_of_no_slots_refuses_everything() {
+        let mut r = Ring::<u8, 0>::new();
+        assert_eq!(r.push_back(1), Err(1));
+        assert!(r.push_slot().is_none());
+        assert_eq!(
+            (r.pop_front(), r.front(), r.back(), r.get(0)),
+            (None, None, None, None)
+        );
+        r.drop_front();
+        r.pop_back();
+        assert!(r.is_empty() && r.is_full());
+    }
 
     proptest! {
         /// Any sequence of operations behaves like `VecDeque` bounded at N.
