@@ -171,9 +171,10 @@ def panic_image(bless, features, baseline, label):
         flags += ["--features", "panic-never"]
     res = subprocess.run(["cargo", "build", "--release", "--bin", "fuzzy-firmware"] + flags,
                          cwd=FW, env=env, capture_output=True, text=True)
-    # The normal image of the same features, for the site listing.
-    subprocess.run(["cargo", "build", "--release", "-q", "--bin", "fuzzy-firmware"] + list(features),
-                   cwd=FW, env=env, check=True)
+    if res.returncode != 0:
+        # The normal image of the same features, for the site listing.
+        subprocess.run(["cargo", "build", "--release", "-q", "--bin", "fuzzy-firmware"] + list(features),
+                       cwd=FW, env=env, check=True)
     path = os.path.join(BASE, baseline)
     known = [l.strip() for l in open(path) if l.strip() and not l.startswith("#")] if os.path.exists(path) else []
     try:

@@ -6,8 +6,8 @@
 //! Values are positive: `mant · 2^exp` with `mant` normalised to
 //! `[2^31, 2^32)`, or zero: `mant = 0` with any exponent (every operation
 //! tests the mantissa, so products and scalings need not normalise a zero).
-//! Every operation truncates to 32 significant bits,
-//! so each step has a relative error below 2^-31 ≈ 4.7e-10. Only integer
+//! Every operation truncates to 32 significant bits, so each step has a
+//! relative error below 2^-31 ≈ 4.7e-10. Only integer
 //! instructions are used, so the host and a Cortex-M give the same bits.
 //!
 //! `micromath` is deliberately not used here: its `sqrt` is a ~1e-3
