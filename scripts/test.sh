@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Every test, from a fresh machine: set-up, formatting, lints, the no_std
-# build of the core for the Cortex-M4F, the firmware (build, lints, size,
+# build of the core and the controller logic for the Cortex-M4F, the firmware (build, lints, size,
 # panic and cost checks in QEMU), and all tests (including Octave evaluating
 # our exported controller and the firmware's system tests in QEMU).
 set -euo pipefail
@@ -19,8 +19,8 @@ cargo clippy --workspace --all-targets -q -- -D warnings
 step "fuzzy-core docs build without warnings"
 RUSTDOCFLAGS="-D warnings" cargo doc -q -p fuzzy-core --no-deps
 
-step "fuzzy-core builds for thumbv7em-none-eabihf (no_std, no alloc)"
-cargo build -q -p fuzzy-core --target thumbv7em-none-eabihf --release
+step "fuzzy-core and controller build for thumbv7em-none-eabihf (no_std, no alloc)"
+cargo build -q -p fuzzy-core -p controller --target thumbv7em-none-eabihf --release
 
 # The firmware is its own workspace with its own target dir and triple
 # (firmware/.cargo/config.toml); a caller's CARGO_TARGET_DIR must not move it.

@@ -1,26 +1,16 @@
-//! Firmware of the fuzzy feedrate motion controller: the parts shared by
-//! the RTIC application (`src/main.rs`) and the cost benchmark
-//! (`src/bin/cost.rs`).
+//! Firmware of the fuzzy feedrate motion controller: the chip's side,
+//! shared by the RTIC application (`src/main.rs`) and the cost benchmark
+//! (`src/bin/cost.rs`). The logic they run is the `controller` crate.
 //!
 //! | module | what |
 //! |---|---|
 //! | [`board`] | the chip and pins: clocks, USART1, step/dir GPIO (one file per board) |
-//! | [`config`] | build-time settings: tick rate, machine limits, steps/mm, buffer sizes |
-//! | [`motion`] | the scheduler feeding the velocity planner, the setpoint ring, the per-tick work |
-//! | [`replay`] | scheduler + planner over a whole path, fixed feeding policy, checksum (cost benchmark; shared with a host test) |
-//! | [`ring`] | lock-free single-producer single-consumer ring (setpoints, commands), panic-free |
-//! | [`stepper`] | step/direction outputs on `embedded-hal` pins |
-//! | [`measure`] | SysTick cycle counter, stack high-water mark |
+//! | [`measure`] | SysTick as tick timer and cycle counter, stack high-water mark |
 #![no_std]
 #![deny(missing_docs)]
 
 pub mod board;
-pub mod config;
 pub mod measure;
-pub mod motion;
-pub mod replay;
-pub mod ring;
-pub mod stepper;
 
 #[cfg(feature = "qemu")]
 mod logger;

@@ -28,8 +28,11 @@
 //! queue; one that does gets [`ErrorCode::NoCredit`] and the command is
 //! dropped. Acknowledged commands are in the queue: nothing acknowledged is
 //! ever dropped.
-#![cfg_attr(not(test), no_std)]
+#![cfg_attr(not(any(test, feature = "std")), no_std)]
 #![deny(missing_docs)]
+
+#[cfg(feature = "std")]
+pub mod client;
 
 use crc::{Crc, CRC_32_ISO_HDLC};
 use serde::{Deserialize, Serialize};

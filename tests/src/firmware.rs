@@ -1,20 +1,17 @@
-//! Host side of the firmware link, for the QEMU system tests and the
-//! `stream` tool: start the firmware in QEMU, talk to it over the emulated
-//! USART with the `link` protocol (credit flow control, resend on refusal),
-//! and collect what it reports.
+//! The firmware in QEMU for the system tests: start it, talk to it over
+//! the emulated USART through the link's host client
+//! (`link::client::Connection`: sequence numbers, credit, go-back-N), and
+//! record what it reports.
 
-use std::collections::VecDeque;
-use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
 use std::sync::OnceLock;
 use std::thread;
 use std::time::{Duration, Instant};
 
-use fuzzy_core::scheduler::SchedulerConfig;
-use fuzzy_core::units::Point3Mm;
-use link::{DeviceMsg, ErrorCode, FrameReader, HostMsg, PlanEvent, Status};
+use fuzzy_core::scheduler::{PathPoint, SchedulerConfig};
+use link::client::{Client, Connection, Hello, LinkError};
+use link::{DeviceMsg, ErrorCode, HostMsg, PlanEvent, Status};
 
 /// The repository root.
 pub fn repo_root() -> PathBuf {
@@ -64,21 +61,10 @@ pub fn firmware_elf() -> PathBuf {
     .clone()
 }
 
-/// A path's points from a CSV of `x,y,z` mm (header and `#` comments
-/// skipped), quantised as the firmware receives them.
-pub fn read_points(path: &Path) -> Vec<Point3Mm> {
-    let text = std::fs::read_to_string(path).expect("read CSV");
-    text.lines()
-        .map(str::trim)
-        .filter(|l| !l.is_empty() && !l.starts_with('#') && !l.starts_with('x'))
-        .map(|l| {
-            let v: Vec<f64> = l
-                .split(',')
-                .map(|c| c.trim().parse().expect("number"))
-                .collect();
-            Point3Mm::from_f64(v[0], v[1], v[2]).expect("coordinate")
-        })
-        .collect()
+/// A path from a CSV of `x,y,z[,feed cap]` (mm, mm/min), quantised as the
+/// firmware receives it (`host_sim::path_csv`, errors name the line).
+pub fn read_points(path: &Path) -> Vec<PathPoint> {
+    host_sim::path_csv::read(path).unwrap_or_else(|e| panic!("{e:#}"))
 }
 
 /// A scheduled point as the firmware reported it.
@@ -123,38 +109,55 @@ impl PlanLog {
     }
 }
 
-/// A running firmware (QEMU) and the host end of its link. QEMU is killed
-/// when this is dropped.
-pub struct Firmware {
-    child: Option<Child>,
-    writer: Box<dyn Write + Send>,
-    rx: Receiver<DeviceMsg>,
-    /// Every queued command, by sequence number.
-    outbox: Vec<HostMsg>,
-    /// Next sequence number to transmit.
-    pub send_next: u32,
-    /// The controller's next expected sequence number.
-    pub acked: u32,
-    /// The controller's credit limit (exclusive).
-    pub window_end: u32,
-    /// Scheduled points reported, in order of arrival.
+/// What the firmware reported, in order of arrival.
+#[derive(Default)]
+pub struct Records {
+    /// Scheduled points reported.
     pub scheduled: Vec<Reported>,
     /// Errors reported, with the sequence number then expected.
     pub errors: Vec<(ErrorCode, u32)>,
-    /// The last status received.
-    pub last_status: Option<Status>,
-    /// The hello: tick rate, acceleration.
-    pub hello: (u32, u32),
-    /// The hello: the machine's maximum feed, mm/min.
-    pub feed_max: u32,
-    /// The hello: points the velocity planner buffers.
-    pub planner_points: u16,
     /// Every input of the firmware's planner, in order.
     pub plan_log: Vec<PlanLog>,
-    /// Every status received, in order.
+    /// Every status received.
     pub statuses: Vec<Status>,
-    /// Resends after a refusal or a silence.
-    pub resends: u32,
+}
+
+impl Records {
+    fn record(&mut self, m: &DeviceMsg) {
+        match *m {
+            DeviceMsg::Scheduled {
+                seq,
+                index,
+                feed_mm_per_min,
+                tick,
+            } => {
+                self.scheduled.push(Reported {
+                    seq,
+                    index,
+                    feed_bits: feed_mm_per_min,
+                    tick,
+                });
+                self.plan_log.push(PlanLog::Point { seq, tick });
+            }
+            DeviceMsg::Planned { tick, event } => {
+                self.plan_log.push(PlanLog::Event { tick, event })
+            }
+            DeviceMsg::Status(s) => self.statuses.push(s),
+            DeviceMsg::Error { code, expected_seq } => self.errors.push((code, expected_seq)),
+            DeviceMsg::Ack { .. } | DeviceMsg::Hello { .. } => {}
+        }
+    }
+}
+
+/// A running firmware (QEMU) and the host end of its link
+/// (`link::client::Connection`), recording what the firmware reports. QEMU
+/// is killed when this is dropped. Every wait has a deadline and panics
+/// with the firmware's log path when it passes.
+pub struct Firmware {
+    child: Option<Child>,
+    conn: Connection,
+    /// What the firmware reported.
+    pub rec: Records,
     /// Where the firmware's defmt log goes.
     pub log: PathBuf,
 }
@@ -196,247 +199,123 @@ impl Firmware {
         };
         let _ = std::fs::remove_file(&sock);
         let reader = stream.try_clone().expect("socket clone");
-        let mut fw = Firmware::over(Box::new(stream), Box::new(reader), Some(child), log);
-        fw.wait_hello(Duration::from_secs(10));
+        let mut fw = Firmware {
+            child: Some(child),
+            conn: Connection::new(Box::new(stream), Box::new(reader)),
+            rec: Records::default(),
+            log,
+        };
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while fw.conn.client().hello().is_none() {
+            assert!(Instant::now() < deadline, "no hello from the firmware");
+            fw.pump(Duration::from_millis(100));
+        }
         fw
     }
 
-    /// The host end over any byte stream (e.g. TCP to `cargo run`'s QEMU).
-    pub fn over(
-        writer: Box<dyn Write + Send>,
-        mut reader: Box<dyn Read + Send>,
-        child: Option<Child>,
-        log: PathBuf,
-    ) -> Firmware {
-        let (tx, rx) = mpsc::channel();
-        thread::spawn(move || {
-            let mut frames = FrameReader::new();
-            let mut buf = [0u8; 4096];
-            while let Ok(n) = reader.read(&mut buf) {
-                if n == 0 {
-                    break;
-                }
-                for b in &buf[..n] {
-                    match frames.push::<DeviceMsg>(*b) {
-                        Some(Ok(m)) if tx.send(m).is_err() => return,
-                        Some(Ok(_)) => {}
-                        Some(Err(e)) => eprintln!("host: bad frame from the firmware: {e:?}"),
-                        None => {}
-                    }
-                }
-            }
-        });
-        Firmware {
-            child,
-            writer,
-            rx,
-            outbox: Vec::new(),
-            send_next: 0,
-            acked: 0,
-            window_end: 0,
-            scheduled: Vec::new(),
-            errors: Vec::new(),
-            last_status: None,
-            hello: (0, 0),
-            feed_max: 0,
-            planner_points: 0,
-            plan_log: Vec::new(),
-            statuses: Vec::new(),
-            resends: 0,
-            log,
-        }
+    fn fail(&mut self, e: LinkError) -> ! {
+        let status = self
+            .child
+            .as_mut()
+            .and_then(|c| c.try_wait().ok().flatten());
+        panic!(
+            "{e} (QEMU exit status {status:?}); log: {}",
+            self.log.display()
+        )
     }
 
-    fn wait_hello(&mut self, timeout: Duration) {
-        let deadline = Instant::now() + timeout;
-        while self.hello.0 == 0 {
-            assert!(Instant::now() < deadline, "no hello from the firmware");
-            self.pump(Duration::from_millis(100));
-        }
+    /// The link session (sequence numbers, credit).
+    pub fn client(&self) -> &Client {
+        self.conn.client()
     }
 
-    /// Send one frame.
+    /// The firmware's hello.
+    pub fn hello(&self) -> Hello {
+        self.conn.client().hello().expect("hello received at start")
+    }
+
+    /// Send one frame now.
     pub fn send(&mut self, msg: &HostMsg) {
-        let mut f = [0u8; link::FRAME_MAX];
-        let n = link::encode(msg, &mut f).expect("encode");
-        self.send_raw(&f[..n]);
+        if let Err(e) = self.conn.send(msg) {
+            self.fail(e)
+        }
     }
 
     /// Send raw bytes (for corrupted frames).
     pub fn send_raw(&mut self, bytes: &[u8]) {
-        self.writer.write_all(bytes).expect("write to the firmware");
-        self.writer.flush().expect("flush");
+        if let Err(e) = self.conn.send_raw(bytes) {
+            self.fail(e)
+        }
     }
 
     /// Handle one message from the firmware if one comes within `timeout`;
     /// returns it.
     pub fn pump(&mut self, timeout: Duration) -> Option<DeviceMsg> {
-        let m = match self.rx.recv_timeout(timeout) {
-            Ok(m) => m,
-            Err(RecvTimeoutError::Timeout) => return None,
-            Err(RecvTimeoutError::Disconnected) => {
-                let status = self
-                    .child
-                    .as_mut()
-                    .and_then(|c| c.try_wait().ok().flatten());
-                panic!(
-                    "the firmware's link closed (QEMU exit status {status:?}); log: {}",
-                    self.log.display()
-                )
-            }
-        };
-        match m {
-            DeviceMsg::Hello {
-                tick_hz,
-                accel_mm_per_s2,
-                window_end,
-                feed_max_mm_per_min,
-                planner_points,
-            } => {
-                self.hello = (tick_hz, accel_mm_per_s2);
-                self.feed_max = feed_max_mm_per_min;
-                self.planner_points = planner_points;
-                self.window_end = self.window_end.max(window_end);
-            }
-            DeviceMsg::Ack {
-                next_seq,
-                window_end,
-            } => {
-                self.acked = self.acked.max(next_seq);
-                self.window_end = self.window_end.max(window_end);
-            }
-            DeviceMsg::Scheduled {
-                seq,
-                index,
-                feed_mm_per_min,
-                tick,
-            } => {
-                self.scheduled.push(Reported {
-                    seq,
-                    index,
-                    feed_bits: feed_mm_per_min,
-                    tick,
-                });
-                self.plan_log.push(PlanLog::Point { seq, tick });
-            }
-            DeviceMsg::Planned { tick, event } => {
-                self.plan_log.push(PlanLog::Event { tick, event })
-            }
-            DeviceMsg::Status(s) => {
-                self.acked = self.acked.max(s.next_seq);
-                self.window_end = self.window_end.max(s.window_end);
-                self.last_status = Some(s);
-                self.statuses.push(s);
-            }
-            DeviceMsg::Error { code, expected_seq } => {
-                self.errors.push((code, expected_seq));
-                if matches!(code, ErrorCode::OutOfSequence | ErrorCode::NoCredit)
-                    && expected_seq < self.send_next
-                {
-                    // Go back: resend from what the controller expects.
-                    self.send_next = expected_seq.max(self.acked);
-                    self.resends += 1;
+        match self.conn.recv(timeout) {
+            Ok(m) => {
+                if let Some(m) = &m {
+                    self.rec.record(m);
                 }
+                m
             }
+            Err(e) => self.fail(e),
         }
-        Some(m)
     }
 
     /// Ask for the status and wait for it.
     pub fn status(&mut self) -> Status {
-        for _ in 0..20 {
-            self.send(&HostMsg::StatusQuery);
-            let deadline = Instant::now() + Duration::from_millis(500);
-            while Instant::now() < deadline {
-                if let Some(DeviceMsg::Status(s)) = self.pump(Duration::from_millis(50)) {
-                    return s;
-                }
-            }
+        let rec = &mut self.rec;
+        match self.conn.status(20, |m| rec.record(m)) {
+            Ok(s) => s,
+            Err(e) => self.fail(e),
         }
-        panic!("no status from the firmware; log: {}", self.log.display())
     }
 
-    /// Queue commands (sequence numbers assigned here, in order); sent by
-    /// [`Self::transmit`] within the credit.
-    pub fn queue_path_cmd(&mut self, make: impl FnOnce(u32) -> HostMsg) -> u32 {
-        let seq = self.outbox.len() as u32;
-        self.outbox.push(make(seq));
-        seq
-    }
-
-    /// Queue a path start with these settings.
+    /// Queue a path start with these settings; its sequence number.
     pub fn start_path(&mut self, config: &SchedulerConfig) -> u32 {
         let (f_max, f_min) = (config.f_max.0.to_bits(), config.f_min.0.to_bits());
-        self.queue_path_cmd(|seq| HostMsg::StartPath {
-            seq,
-            f_max_mm_per_min: f_max,
-            f_min_mm_per_min: f_min,
-        })
+        self.conn.client_mut().start_path(f_max, f_min)
     }
 
-    /// Queue points; returns their sequence numbers.
-    pub fn points(&mut self, pts: &[Point3Mm]) -> Vec<u32> {
+    /// Queue points (their feed caps go with them); their sequence
+    /// numbers.
+    pub fn points(&mut self, pts: &[PathPoint]) -> Vec<u32> {
+        let c = self.conn.client_mut();
         pts.iter()
-            .map(|p| {
-                let pos = p.to_bits();
-                self.queue_path_cmd(|seq| HostMsg::Point {
-                    seq,
-                    pos_mm: pos,
-                    feed_cap_mm_per_min: None,
-                })
-            })
+            .map(|p| c.point(p.pos.to_bits(), p.feed_cap.map(|f| f.0.to_bits())))
             .collect()
     }
 
     /// Queue the end of the path.
     pub fn end_path(&mut self) -> u32 {
-        self.queue_path_cmd(|seq| HostMsg::EndPath { seq })
+        self.conn.client_mut().end_path()
     }
 
     /// Send queued commands as the credit allows; returns how many went.
     pub fn transmit(&mut self) -> usize {
-        let mut n = 0;
-        while (self.send_next as usize) < self.outbox.len() && self.send_next < self.window_end {
-            let msg = self.outbox[self.send_next as usize];
-            self.send(&msg);
-            self.send_next += 1;
-            n += 1;
+        match self.conn.transmit() {
+            Ok(n) => n,
+            Err(e) => self.fail(e),
         }
-        n
     }
 
     /// Whether every queued command was acknowledged.
     pub fn all_acked(&self) -> bool {
-        self.acked as usize >= self.outbox.len()
+        self.conn.client().all_acked()
     }
 
     /// Stream until every queued command is acknowledged (resending what
     /// was refused or went unanswered), handling replies on the way.
     pub fn flush(&mut self, timeout: Duration) {
-        let deadline = Instant::now() + timeout;
-        let mut quiet_since = Instant::now();
-        while !self.all_acked() {
-            assert!(
-                Instant::now() < deadline,
-                "stream stalled at seq {} of {}; log: {}",
-                self.acked,
-                self.outbox.len(),
+        let rec = &mut self.rec;
+        if let Err(e) = self.conn.flush(timeout, |m| rec.record(m)) {
+            let at = (self.client().acked(), self.client().unacked());
+            panic!(
+                "stream stalled at seq {} with {} unacknowledged ({e}); log: {}",
+                at.0,
+                at.1,
                 self.log.display()
             );
-            if self.transmit() > 0 {
-                quiet_since = Instant::now();
-            }
-            if self.pump(Duration::from_millis(20)).is_some() {
-                quiet_since = Instant::now();
-            } else if quiet_since.elapsed() > Duration::from_millis(500) {
-                // Lost replies: ask where the controller is, resend from there.
-                let s = self.status();
-                if s.next_seq < self.send_next {
-                    self.send_next = s.next_seq;
-                    self.resends += 1;
-                }
-                quiet_since = Instant::now();
-            }
         }
     }
 
@@ -483,9 +362,9 @@ impl Firmware {
     /// Scheduled points by sequence number (the arrival order is already
     /// the path order; this checks there is no repeat).
     pub fn scheduled_in_order(&self) -> Vec<Reported> {
-        let mut v: VecDeque<Reported> = self.scheduled.iter().copied().collect();
-        v.make_contiguous().sort_by_key(|r| r.seq);
-        v.into()
+        let mut v = self.rec.scheduled.clone();
+        v.sort_by_key(|r| r.seq);
+        v
     }
 }
 

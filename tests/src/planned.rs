@@ -5,10 +5,8 @@
 //! `DeviceMsg::Scheduled`, end of path, hold, resume and override through
 //! `DeviceMsg::Planned`), and in each status a checksum of every setpoint
 //! generated since boot. [`replay`] feeds the same inputs at the same ticks
-//! into a `fuzzy_core::planner::Motion` on the host, mirroring the
-//! firmware's `motion::Planner` (start at rest at the origin; a new path
-//! restarts the planner once the previous one is done; a first point where
-//! the tool already is merges into the start). Then:
+//! into the controller's own planning stage (`controller::planning`, the
+//! code the firmware runs) on the host. Then:
 //! - [`Replayed::check_statuses`]: the firmware's checksum equals the
 //!   host's at every status received (the motion is the same bit for bit),
 //!   and the executed position equals the host's setpoint at the tick
@@ -19,65 +17,37 @@
 
 use std::collections::HashMap;
 
-use fuzzy_core::lin2021::CONTROLLER;
-use fuzzy_core::planner::{Motion, MotionConfig, MotionPoint, MotionState, Tick};
-use fuzzy_core::scheduler::{PathPoint, ScheduledPoint, Scheduler, SchedulerConfig};
+use controller::controls::Controls;
+use controller::planning::Planning;
+use controller::settings::{Plan, Sched};
+use fuzzy_core::lin2021::COMPACT;
+use fuzzy_core::planner::{MotionConfig, Tick};
+use fuzzy_core::scheduler::{PathPoint, ScheduledPoint, SchedulerConfig};
 use fuzzy_core::units::Point3Mm;
 use link::{PlanEvent, Status};
 
 use crate::firmware::PlanLog;
 
-/// Points the firmware's planner buffers (`firmware/src/config.rs`
-/// `PLANNER_POINTS`; the firmware's hello says it, tests compare).
-pub const PLANNER_POINTS: usize = 112;
-
-/// The planner as the firmware has it.
-pub type Plan = Motion<PLANNER_POINTS>;
-
-/// The firmware's planner settings with its default build (its
-/// `MOTION_CONFIG` is `MotionConfig::default()` then; the hello's feed
-/// maximum and acceleration are compared with it).
-pub fn motion_config() -> MotionConfig {
-    MotionConfig::default()
-}
-
 /// The host's schedule of a path whose points carry sequence numbers
 /// `seqs` (the firmware tags each point with its sequence number), by
-/// sequence number.
+/// sequence number: the controller's scheduler with its sizes.
 pub fn schedule(
     config: SchedulerConfig,
-    pts: &[Point3Mm],
+    pts: &[PathPoint],
     seqs: &[u32],
 ) -> HashMap<u32, ScheduledPoint> {
-    let mut s: Scheduler<_, 30, 9, 40> = Scheduler::new(&CONTROLLER, config).expect("config");
+    let mut s = Sched::new(&COMPACT, config).expect("config");
     let mut out = HashMap::new();
     s.run(
-        pts.iter().zip(seqs).map(|(p, seq)| PathPoint {
-            pos: *p,
-            feed_cap: None,
-            tag: *seq,
-        }),
+        pts.iter()
+            .zip(seqs)
+            .map(|(p, seq)| PathPoint { tag: *seq, ..*p }),
         |o| {
             out.insert(o.point.tag, o);
         },
     )
     .expect("schedule");
     out
-}
-
-/// FNV-1a over 64-bit words, as `firmware/src/replay.rs`.
-#[derive(Clone, Copy, Debug)]
-struct Checksum(u64);
-
-impl Checksum {
-    fn add_pos(&mut self, p: Point3Mm) {
-        for c in p.to_bits() {
-            self.0 = (self.0 ^ c as u64).wrapping_mul(0x0000_0100_0000_01B3);
-        }
-    }
-    fn folded(&self) -> u32 {
-        (self.0 ^ (self.0 >> 32)) as u32
-    }
 }
 
 /// The host's planner run over the firmware's inputs.
@@ -92,7 +62,10 @@ pub struct Replayed {
 
 /// Replay `log` (every input of the firmware's planner since boot, in
 /// order) with the points of `points` (by sequence number) until `upto`
-/// ticks are generated.
+/// ticks are generated: the controller's planning stage, started at rest
+/// at the origin as the firmware's, each input given at the tick the
+/// firmware took it. A point the host's planner would not take at that
+/// tick is a failure.
 pub fn replay(
     config: MotionConfig,
     points: &HashMap<u32, ScheduledPoint>,
@@ -100,68 +73,64 @@ pub fn replay(
     upto: u32,
 ) -> Replayed {
     let mut m: Box<Plan> = Box::new(Plan::new(config).expect("planner settings"));
-    // At rest at the origin, as the firmware's `Planner::new`.
-    m.push(MotionPoint {
-        pos: Point3Mm::ORIGIN,
-        ..MotionPoint::default()
-    })
-    .expect("anchor");
-    m.end_path();
-    let (mut last, mut ended, mut here) = (MotionState::Done, true, Point3Mm::ORIGIN);
-    let mut sum = Checksum(0xCBF2_9CE4_8422_2325);
+    let accel_mm_s2 = m.accel_limit_mm_s2().to_num::<f64>();
+    let mut p = Planning::new(&mut m, Point3Mm::ORIGIN).expect("start at rest");
     let mut r = Replayed {
         ticks: Vec::new(),
-        checksums: vec![sum.folded()],
-        accel_mm_s2: m.accel_limit_mm_s2().to_num::<f64>(),
+        checksums: vec![p.checksum().folded()],
+        accel_mm_s2,
     };
-    let mut gen = |m: &mut Plan, r: &mut Replayed, last: &mut MotionState, here: &mut Point3Mm| {
-        let t = m.tick();
-        sum.add_pos(t.pos);
-        r.checksums.push(sum.folded());
-        *last = t.state;
-        *here = t.pos;
-        r.ticks.push(t);
+    let gen = |p: &mut Planning, r: &mut Replayed| {
+        r.ticks.push(p.generate());
+        r.checksums.push(p.checksum().folded());
     };
     for (k, e) in log.iter().enumerate() {
         assert!(
-            e.tick() as usize >= r.ticks.len(),
+            e.tick() >= p.generated(),
             "planner input {k} ({e:?}) at tick {} before the previous one's tick {}",
             e.tick(),
-            r.ticks.len()
+            p.generated()
         );
-        while (r.ticks.len() as u32) < e.tick() {
-            gen(&mut m, &mut r, &mut last, &mut here);
+        while p.generated() < e.tick() {
+            gen(&mut p, &mut r);
         }
         match *e {
             PlanLog::Point { seq, .. } => {
                 let s = points
                     .get(&seq)
                     .unwrap_or_else(|| panic!("point seq {seq} not scheduled on the host"));
-                let p = MotionPoint::from(s);
-                if ended {
-                    assert_eq!(last, MotionState::Done, "seq {seq}: restart while moving");
-                    m.restart().expect("restart");
-                    ended = false;
-                    if p.pos == here {
-                        continue;
+                let took = p.take_point(s);
+                assert!(
+                    matches!(took, Ok(Some(_))),
+                    "seq {seq}: the host planner did not take it at tick {}: {took:?}",
+                    e.tick()
+                );
+            }
+            PlanLog::Event { event, .. } => {
+                let c = |hold, override_percent| Controls {
+                    hold,
+                    override_percent,
+                    force: None,
+                };
+                match event {
+                    PlanEvent::EndPath => {
+                        p.end_path();
+                    }
+                    PlanEvent::Hold => {
+                        p.apply(c(Some(true), None));
+                    }
+                    PlanEvent::Resume => {
+                        p.apply(c(Some(false), None));
+                    }
+                    PlanEvent::Override(pct) => {
+                        p.apply(c(None, Some(pct)));
                     }
                 }
-                m.push(p)
-                    .unwrap_or_else(|e| panic!("seq {seq}: the host planner refused it: {e:?}"));
             }
-            PlanLog::Event { event, .. } => match event {
-                PlanEvent::EndPath => {
-                    m.end_path();
-                    ended = true;
-                }
-                PlanEvent::Hold => m.set_hold(true),
-                PlanEvent::Resume => m.set_hold(false),
-                PlanEvent::Override(p) => m.set_override(p),
-            },
         }
     }
-    while (r.ticks.len() as u32) < upto {
-        gen(&mut m, &mut r, &mut last, &mut here);
+    while p.generated() < upto {
+        gen(&mut p, &mut r);
     }
     r
 }

@@ -19,7 +19,7 @@
 //! - the cost benchmark (`firmware/src/bin/cost.rs`, 0.05 mm line, shapes,
 //!   with and without hold/override/starvation events) prints checksums
 //!   of its commanded positions, which the host recomputes with the same
-//!   code (`firmware/src/replay.rs`).
+//!   code (`controller::replay`).
 //!
 //! Needs `qemu-system-arm`; skipped without it unless `FUZZY_REQUIRE_QEMU=1`
 //! (set by `scripts/test.sh`). Each QEMU is killed when its test ends, and
@@ -30,9 +30,12 @@
 
 use std::time::Duration;
 
-use fuzzy_core::lin2021::CONTROLLER;
-use fuzzy_core::scheduler::{PathPoint, Scheduler, SchedulerConfig};
+use controller::replay::{self, NoClock, Replay};
+use controller::settings::{Plan, Sched, MOTION_CONFIG, PLANNER_POINTS};
+use fuzzy_core::lin2021::COMPACT;
+use fuzzy_core::scheduler::{PathPoint, SchedulerConfig};
 use fuzzy_core::units::{FeedMmPerMin, Point3Mm};
+use link::client::Hello;
 use link::{ErrorCode, HostMsg, Motion, Status};
 use system_tests::firmware::{qemu_available, read_points, repo_root, Firmware};
 use system_tests::planned::{self, Peaks};
@@ -44,11 +47,12 @@ fn config() -> SchedulerConfig {
     SchedulerConfig::new(FeedMmPerMin::from_int(F_MAX), FeedMmPerMin::from_int(F_MIN))
 }
 
-/// The host's schedule: (index, feed bits) per point.
-fn host_feeds(points: &[Point3Mm]) -> Vec<(u32, i64)> {
-    let mut s: Scheduler<_, 30, 9, 40> = Scheduler::new(&CONTROLLER, config()).unwrap();
+/// The host's schedule (the controller's scheduler): (index, feed bits)
+/// per point.
+fn host_feeds(points: &[PathPoint]) -> Vec<(u32, i64)> {
+    let mut s = Sched::new(&COMPACT, config()).unwrap();
     let mut out = Vec::new();
-    s.run(points.iter().map(|p| PathPoint::at(*p)), |o| {
+    s.run(points.iter().copied(), |o| {
         out.push((o.index, o.feed.0.to_bits()))
     })
     .unwrap();
@@ -56,10 +60,15 @@ fn host_feeds(points: &[Point3Mm]) -> Vec<(u32, i64)> {
 }
 
 /// A straight line along x from 0, `n` points `step_mm` apart.
-fn line(n: usize, step_mm: f64) -> Vec<Point3Mm> {
+fn line(n: usize, step_mm: f64) -> Vec<PathPoint> {
     (0..n)
-        .map(|i| Point3Mm::from_f64(i as f64 * step_mm, 0.0, 0.0).unwrap())
+        .map(|i| PathPoint::at(Point3Mm::from_f64(i as f64 * step_mm, 0.0, 0.0).unwrap()))
         .collect()
+}
+
+/// The last point's position bits.
+fn end_of(pts: &[PathPoint]) -> [i64; 3] {
+    pts.last().unwrap().pos.to_bits()
 }
 
 fn feed(s: &Status) -> f64 {
@@ -73,8 +82,8 @@ fn pos(s: &Status) -> [f64; 3] {
 /// Consecutive status samples: the feed never changes faster than the
 /// acceleration limit allows (mm/min per tick = a · 60 / tick rate), and
 /// the position never moves farther than the fastest feed allows.
-fn check_smooth(samples: &[Status], hello: (u32, u32), max_feed: f64) {
-    let (hz, accel) = (hello.0 as f64, hello.1 as f64);
+fn check_smooth(samples: &[Status], hello: Hello, max_feed: f64) {
+    let (hz, accel) = (hello.tick_hz as f64, hello.accel_mm_per_s2 as f64);
     let dfeed_per_tick = accel * 60.0 / hz;
     for w in samples.windows(2) {
         let dt = w[1].ticks.wrapping_sub(w[0].ticks) as f64;
@@ -98,12 +107,12 @@ fn check_smooth(samples: &[Status], hello: (u32, u32), max_feed: f64) {
 /// A path as streamed: its settings, points and their sequence numbers.
 struct Sent {
     config: SchedulerConfig,
-    pts: Vec<Point3Mm>,
+    pts: Vec<PathPoint>,
     seqs: Vec<u32>,
 }
 
 impl Sent {
-    fn stream(fw: &mut Firmware, config: SchedulerConfig, pts: &[Point3Mm]) -> Sent {
+    fn stream(fw: &mut Firmware, config: SchedulerConfig, pts: &[PathPoint]) -> Sent {
         fw.start_path(&config);
         let seqs = fw.points(pts);
         Sent {
@@ -114,12 +123,13 @@ impl Sent {
     }
 }
 
-/// The firmware's hello matches the settings the host replays with.
+/// The firmware's hello matches the settings the host replays with (the
+/// controller crate's, built with the same environment).
 fn check_hello(fw: &Firmware) {
-    let c = planned::motion_config();
-    assert_eq!(fw.hello.0, 1_000_000 / c.tick_us, "tick rate");
-    assert_eq!(fw.planner_points as usize, planned::PLANNER_POINTS);
-    assert_eq!(fw.feed_max as f64, c.feed_max.to_f64());
+    let (h, c) = (fw.hello(), MOTION_CONFIG);
+    assert_eq!(h.tick_hz, 1_000_000 / c.tick_us, "tick rate");
+    assert_eq!(h.planner_points as usize, PLANNER_POINTS);
+    assert_eq!(h.feed_max_mm_per_min as f64, c.feed_max.to_f64());
 }
 
 /// Every scheduled feed equals the host's bit for bit; the host's replay of
@@ -137,7 +147,7 @@ fn verify(
     for p in paths {
         points.extend(planned::schedule(p.config, &p.pts, &p.seqs));
     }
-    for r in &fw.scheduled {
+    for r in &fw.rec.scheduled {
         let h = points
             .get(&r.seq)
             .unwrap_or_else(|| panic!("{name}: seq {} not a point", r.seq));
@@ -152,20 +162,21 @@ fn verify(
     }
     fw.status();
     let upto = fw
+        .rec
         .statuses
         .iter()
         .map(|s| s.generated_ticks)
         .max()
         .unwrap_or(0);
-    let config = planned::motion_config();
-    let rep = planned::replay(config, &points, &fw.plan_log, upto);
+    let config = MOTION_CONFIG;
+    let rep = planned::replay(config, &points, &fw.rec.plan_log, upto);
+    let hello_accel = fw.hello().accel_mm_per_s2 as f64;
     assert!(
-        (rep.accel_mm_s2.ceil() - fw.hello.1 as f64).abs() < 1.0,
-        "{name}: acceleration limit {} vs hello {}",
+        (rep.accel_mm_s2.ceil() - hello_accel).abs() < 1.0,
+        "{name}: acceleration limit {} vs hello {hello_accel}",
         rep.accel_mm_s2,
-        fw.hello.1
     );
-    let n = rep.check_statuses(name, &fw.statuses);
+    let n = rep.check_statuses(name, &fw.rec.statuses);
     let p = planned::peaks(
         &rep.ticks[from.min(rep.ticks.len())..],
         &config,
@@ -193,7 +204,7 @@ fn run_shape(name: &str) -> String {
     let first = sent.seqs[0];
     fw.end_path();
     fw.flush(Duration::from_secs(240));
-    let goal = pts.last().unwrap().to_bits();
+    let goal = end_of(&pts);
     let end = fw.poll_until(Duration::from_millis(200), Duration::from_secs(240), |s| {
         s.motion == Motion::Idle && s.pos_mm == goal
     });
@@ -211,11 +222,7 @@ fn run_shape(name: &str) -> String {
             w.1 as f64 / 4294967296.0
         );
     }
-    assert_eq!(
-        last.pos_mm,
-        pts.last().unwrap().to_bits(),
-        "{name}: end point"
-    );
+    assert_eq!(last.pos_mm, end_of(&pts), "{name}: end point");
     assert_eq!(last.bad_frames, 0);
     assert_eq!(last.empty_ticks, 0, "{name}: the planner fell behind");
     assert!(fw.alive(), "{name}: QEMU exited");
@@ -226,7 +233,7 @@ fn run_shape(name: &str) -> String {
         want.len(),
         rep.ticks.len(),
         last.underruns,
-        fw.resends,
+        fw.client().resends(),
         last.worst_tick_cycles,
         last.worst_tick_cycles as u64 * 1000 / 168,
         last.stack_used_bytes
@@ -270,11 +277,11 @@ fn underrun_stops_within_the_acceleration_and_resumes_without_a_jump() {
     let stop = fw.poll_until(Duration::from_millis(5), Duration::from_secs(120), |s| {
         s.motion == Motion::Starved && s.feed_mm_per_min == 0
     });
-    check_smooth(&stop, fw.hello, F_MAX as f64);
+    check_smooth(&stop, fw.hello(), F_MAX as f64);
     let s = *stop.last().unwrap();
-    let released = fw.scheduled.len();
+    let released = fw.rec.scheduled.len();
     assert_eq!(released, sent - latency, "points released by the scheduler");
-    let last_known = pts[released - 2].to_bits();
+    let last_known = pts[released - 2].pos.to_bits();
     assert_eq!(
         s.pos_mm,
         last_known,
@@ -299,10 +306,10 @@ fn underrun_stops_within_the_acceleration_and_resumes_without_a_jump() {
     fw.flush(Duration::from_secs(120));
     seen.extend(
         fw.poll_until(Duration::from_millis(5), Duration::from_secs(120), |s| {
-            s.motion == Motion::Idle && s.pos_mm == pts.last().unwrap().to_bits()
+            s.motion == Motion::Idle && s.pos_mm == end_of(&pts)
         }),
     );
-    check_smooth(&seen, fw.hello, F_MAX as f64);
+    check_smooth(&seen, fw.hello(), F_MAX as f64);
     assert!(seen.iter().any(|s| feed(s) > 2900.0));
     let (rep, _) = verify("underrun", &mut fw, &paths, 0);
     // The host's run stops at the same point, at rest, starved.
@@ -341,7 +348,7 @@ fn feed_hold_decelerates_and_resume_continues() {
             s.motion == Motion::Held && s.feed_mm_per_min == 0
         }),
     );
-    check_smooth(&stop, fw.hello, F_MAX as f64);
+    check_smooth(&stop, fw.hello(), F_MAX as f64);
     let held = *stop.last().unwrap();
     let ticks = held.ticks - stop[0].ticks;
     // 50 mm/s at 1000 mm/s² takes 50 ms: at least that many ticks.
@@ -357,8 +364,8 @@ fn feed_hold_decelerates_and_resume_continues() {
             s.motion == Motion::Idle
         }),
     );
-    check_smooth(&go, fw.hello, F_MAX as f64);
-    assert_eq!(go.last().unwrap().pos_mm, pts.last().unwrap().to_bits());
+    check_smooth(&go, fw.hello(), F_MAX as f64);
+    assert_eq!(go.last().unwrap().pos_mm, end_of(&pts));
     assert_eq!(
         stop.last().unwrap().underruns,
         underruns,
@@ -401,13 +408,16 @@ fn feed_override_scales_the_feed() {
     );
     assert_eq!(seen.last().unwrap().override_percent, 50);
     // Out of range: refused, nothing changes.
-    let errors = fw.errors.len();
+    let errors = fw.rec.errors.len();
     fw.send(&HostMsg::Override { percent: 5 });
     fw.send(&HostMsg::Override { percent: 201 });
     let s = fw.status();
     assert_eq!(s.override_percent, 50);
     assert_eq!(
-        fw.errors[errors..].iter().map(|e| e.0).collect::<Vec<_>>(),
+        fw.rec.errors[errors..]
+            .iter()
+            .map(|e| e.0)
+            .collect::<Vec<_>>(),
         vec![ErrorCode::OutOfRange, ErrorCode::OutOfRange]
     );
     seen.push(s);
@@ -416,16 +426,16 @@ fn feed_override_scales_the_feed() {
     seen.extend(fw.poll_until(
         Duration::from_millis(5),
         Duration::from_secs(60),
-        near(fw.feed_max as f64),
+        near(fw.hello().feed_max_mm_per_min as f64),
     ));
-    check_smooth(&seen, fw.hello, fw.feed_max as f64);
+    check_smooth(&seen, fw.hello(), fw.hello().feed_max_mm_per_min as f64);
     fw.send(&HostMsg::Override { percent: 100 });
     let end = fw.poll_until(Duration::from_millis(20), Duration::from_secs(120), |s| {
         s.motion == Motion::Idle
     });
-    assert_eq!(end.last().unwrap().pos_mm, pts.last().unwrap().to_bits());
+    assert_eq!(end.last().unwrap().pos_mm, end_of(&pts));
     let (_, p) = verify("override", &mut fw, &paths, 0);
-    assert!(p.feed_max <= fw.feed_max as f64 + 1e-6);
+    assert!(p.feed_max <= fw.hello().feed_max_mm_per_min as f64 + 1e-6);
     println!("override: 100 % -> 50 % (1500 mm/min) -> 200 % (capped at 5000 mm/min); 5 % and 201 % refused");
 }
 
@@ -507,7 +517,7 @@ fn force_samples_drive_the_feed_override() {
         assert_eq!(seen.last().unwrap().override_percent, back);
     }
     // A negative force: refused, nothing changes.
-    let errors = fw.errors.len();
+    let errors = fw.rec.errors.len();
     fw.send(&HostMsg::Force {
         fx_n_q16: -1,
         fy_n_q16: q16(40.0),
@@ -515,15 +525,18 @@ fn force_samples_drive_the_feed_override() {
     let s = fw.status();
     assert_eq!(s.override_percent, back);
     assert_eq!(
-        fw.errors[errors..].iter().map(|e| e.0).collect::<Vec<_>>(),
+        fw.rec.errors[errors..]
+            .iter()
+            .map(|e| e.0)
+            .collect::<Vec<_>>(),
         vec![ErrorCode::OutOfRange]
     );
     seen.push(s);
-    check_smooth(&seen, fw.hello, fw.feed_max as f64);
+    check_smooth(&seen, fw.hello(), fw.hello().feed_max_mm_per_min as f64);
     let end = fw.poll_until(Duration::from_millis(20), Duration::from_secs(120), |s| {
         s.motion == Motion::Idle
     });
-    assert_eq!(end.last().unwrap().pos_mm, pts.last().unwrap().to_bits());
+    assert_eq!(end.last().unwrap().pos_mm, end_of(&pts));
     verify("force", &mut fw, &paths, 0);
     println!("force: at the references 100 %; 8 samples above (150 N, 50 N) -> {last} %; back at the references {back} %, held; a negative force refused");
 }
@@ -546,7 +559,7 @@ fn short_segments_stream_through_the_planner() {
     let mut fw = Firmware::start("short");
     let paths = [Sent::stream(&mut fw, cfg, &pts)];
     fw.end_path();
-    let goal = pts.last().unwrap().to_bits();
+    let goal = end_of(&pts);
     let seen = fw.poll_until(Duration::from_millis(20), Duration::from_secs(240), |s| {
         s.motion == Motion::Idle && s.pos_mm == goal
     });
@@ -558,7 +571,7 @@ fn short_segments_stream_through_the_planner() {
     assert!(p.feed_max >= 1000.0, "top feed {} mm/min", p.feed_max);
     println!(
         "short segments: 2000 x 0.05 mm streamed, top feed {:.0} mm/min (status samples {top:.0}), {} underruns, {} resends",
-        p.feed_max, last.underruns, fw.resends
+        p.feed_max, last.underruns, fw.client().resends()
     );
 }
 
@@ -601,12 +614,14 @@ fn corrupted_frames_are_refused_and_no_acknowledged_point_is_lost() {
     while !fw.all_acked() {
         fw.transmit();
         fw.pump(Duration::from_millis(20));
-        let seq = fw.acked;
+        let seq = fw.client().acked();
         if seq >= round * 50 + 10 && round < 6 {
             round += 1;
             let good = HostMsg::Point {
                 seq,
-                pos_mm: pts[(seq - first).min(pts.len() as u32 - 1) as usize].to_bits(),
+                pos_mm: pts[(seq - first).min(pts.len() as u32 - 1) as usize]
+                    .pos
+                    .to_bits(),
                 feed_cap_mm_per_min: None,
             };
             let bad: Vec<(Vec<u8>, ErrorCode)> = vec![
@@ -641,7 +656,7 @@ fn corrupted_frames_are_refused_and_no_acknowledged_point_is_lost() {
                             // The next one expected once those in flight
                             // are in (an older seq would be taken for a
                             // resend and acknowledged again).
-                            seq: fw.send_next,
+                            seq: fw.client().send_next(),
                             pos_mm: [1_000_000i64 << 32, 0, 0],
                             feed_cap_mm_per_min: None,
                         },
@@ -657,7 +672,7 @@ fn corrupted_frames_are_refused_and_no_acknowledged_point_is_lost() {
                 (
                     damaged(
                         &HostMsg::Point {
-                            seq: fw.send_next + 5,
+                            seq: fw.client().send_next() + 5,
                             pos_mm: [0; 3],
                             feed_cap_mm_per_min: None,
                         },
@@ -673,7 +688,7 @@ fn corrupted_frames_are_refused_and_no_acknowledged_point_is_lost() {
         }
     }
     fw.flush(Duration::from_secs(60));
-    let goal = pts.last().unwrap().to_bits();
+    let goal = end_of(pts);
     let end = fw.poll_until(Duration::from_millis(100), Duration::from_secs(120), |s| {
         s.motion == Motion::Idle && s.pos_mm == goal
     });
@@ -683,7 +698,7 @@ fn corrupted_frames_are_refused_and_no_acknowledged_point_is_lost() {
         assert_eq!(g.seq, first + i as u32);
         assert_eq!((g.index, g.feed_bits), *w, "point {i}");
     }
-    let codes: Vec<ErrorCode> = fw.errors.iter().map(|e| e.0).collect();
+    let codes: Vec<ErrorCode> = fw.rec.errors.iter().map(|e| e.0).collect();
     for code in &expect {
         assert!(codes.contains(code), "no {code:?} reply; got {codes:?}");
     }
@@ -694,29 +709,16 @@ fn corrupted_frames_are_refused_and_no_acknowledged_point_is_lost() {
         last.bad_frames,
         expect.len()
     );
-    assert_eq!(last.pos_mm, pts.last().unwrap().to_bits());
+    assert_eq!(last.pos_mm, end_of(pts));
     verify("corrupt", &mut fw, &paths, 0);
     println!(
         "corrupted frames: {} bad frames sent, {} refused, {} resends; all {} points scheduled bit-exact",
         expect.len(),
         last.bad_frames,
-        fw.resends,
+        fw.client().resends(),
         want.len()
     );
 }
-
-/// The scheduler sizes of `firmware/src/config.rs`, for [`replay`].
-mod config {
-    pub const WS: usize = 30;
-    pub const AVG: usize = 9;
-    pub const SCHED_CAP: usize = 36;
-}
-
-/// `firmware/src/replay.rs`, the cost benchmark's feeding policy and
-/// checksum, compiled for the host with the firmware's scheduler sizes.
-#[allow(dead_code)]
-#[path = "../../firmware/src/replay.rs"]
-mod replay;
 
 /// The cost benchmark in QEMU (`firmware/src/bin/cost.rs`: a 100 mm line of
 /// 0.05 mm segments at 5000 mm/min, the three shapes, then the shapes with
@@ -774,27 +776,18 @@ fn cost_benchmark_plans_the_same_bits_as_the_host() {
             .to_string()
     };
 
-    let mcfg = planned::motion_config();
-    let mut plan: Box<planned::Plan> = Box::new(planned::Plan::new(mcfg).unwrap());
-    replay::anchor(&mut *plan, Point3Mm::ORIGIN).unwrap();
+    let mcfg = MOTION_CONFIG;
+    let mut plan: Box<Plan> = Box::new(Plan::new(mcfg).unwrap());
     let accel = plan.accel_limit_mm_s2().to_num::<f64>();
-    let mut here = Point3Mm::ORIGIN;
+    let mut bench = Replay::new(&mut plan, Point3Mm::ORIGIN).unwrap();
     let mut run = |name: &str,
                    cfg: SchedulerConfig,
                    pts: &mut dyn Iterator<Item = Point3Mm>,
                    events: bool| {
         let mut ticks = Vec::new();
-        let r = replay::run(
-            &mut *plan,
-            cfg,
-            here,
-            pts,
-            events,
-            &mut replay::NoClock,
-            |_, t| ticks.push(*t),
-        )
-        .unwrap_or_else(|e| panic!("{name}: {e:?}"));
-        here = r.end;
+        let r = bench
+            .run(cfg, pts, events, &mut NoClock, |_, t| ticks.push(*t))
+            .unwrap_or_else(|e| panic!("{name}: {e:?}"));
         let run = format!("{name}{}", if events { "+events" } else { "" });
         assert_eq!(
             field(&run, "positions"),
@@ -830,7 +823,10 @@ fn cost_benchmark_plans_the_same_bits_as_the_host() {
         .map(|n| {
             (
                 n,
-                read_points(&repo_root().join(format!("tests/data/shapes/{n}.csv"))),
+                read_points(&repo_root().join(format!("tests/data/shapes/{n}.csv")))
+                    .into_iter()
+                    .map(|p| p.pos)
+                    .collect(),
             )
         })
         .collect();

@@ -3,27 +3,31 @@
 //! 0.05 mm segments, run under QEMU with `-icount shift=0` (one instruction
 //! per ns; SysTick at 168 MHz counts 168 per 1000 instructions).
 //!
-//! Every run is [`replay::run`], the fixed feeding policy shared with the
-//! host test `cost_benchmark_plans_the_same_bits_as_the_host` in
-//! `tests/tests/firmware_qemu.rs`, which computes the same checksums of the commanded positions on the host and compares them with
-//! the ones printed here. Nothing else runs (no interrupts), so nothing
+//! Every run is `controller::replay::Replay::run`, the fixed order of
+//! pushes and ticks shared with the host test
+//! `cost_benchmark_plans_the_same_bits_as_the_host` in
+//! `tests/tests/firmware_qemu.rs`, which computes the same checksums of the
+//! commanded positions on the host and compares them with the ones printed
+//! here. Nothing else runs (no interrupts), so nothing
 //! else is counted. Figures (instructions):
-//! - `sched`: `Scheduler::push`/`drain` (curvature, lookahead, controller,
-//!   filter); mean per scheduled point, worst call;
-//! - `push`: `Motion::push` per point (mean, worst);
-//! - `gen`: `Motion::tick`, the generation of one setpoint, per tick (mean,
+//! - `sched`: the scheduler's step (`Feeder::command`/`drain`: curvature,
+//!   lookahead, controller, filter); mean per scheduled point, worst call;
+//! - `push`: a scheduled point into the planner (`Planning::push_pending`)
+//!   per point (mean, worst);
+//! - `gen`: one generated tick (`Planning::generate`), per tick (mean,
 //!   worst); in the application it runs in the background;
-//! - `isr`: what the tick interrupt does per tick ([`Executor::tick`]: the
-//!   next setpoint from the ring to the step/dir outputs), mean and worst;
-//!   the application adds RTIC's entry and exit;
-//! - `override`: `Motion::set_override` (it re-plans the buffer), worst.
+//! - `isr`: what the tick interrupt does per tick (`TickExecutor::tick`:
+//!   the next setpoint from the ring to the step/dir outputs), mean and
+//!   worst; the application adds RTIC's entry and exit;
+//! - `override`: an override change (the planner re-plans its buffer),
+//!   worst.
 //!
 //! Runs, in this order: `line` (100 mm of 0.05 mm segments from the origin,
 //! F_max 5000 mm/min), `infinity`, `trident`, `butterfly` (F_max 3000
 //! mm/min, the firmware's default), and the shapes again with `+events` (a
 //! feed hold, override changes and a starved stretch at fixed ticks:
-//! [`replay::EVENTS`]). Each path starts where the previous one ended
-//! (`Motion::restart`), the first at the origin, as in the firmware.
+//! `controller::replay::EVENTS`). Each path starts where the previous one
+//! ended, the first at the origin, as in the firmware.
 //!
 //! Output: plain text on semihosting stdout (no defmt: this binary logs
 //! nothing else), one `cost <run> …` line per run, then `cost all …` (the
@@ -31,16 +35,17 @@
 #![no_std]
 #![no_main]
 
+use controller::planning::Setpoint;
+use controller::replay::{self, Clock, Replay, Report, Stat};
+use controller::ring::Ring;
+use controller::settings::{Plan, MOTION_CONFIG, SCHED_CONFIG, SETPOINT_RING, STEPS_PER_MM};
+use controller::stepper::Axes;
+use controller::tick::TickExecutor;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::hprintln;
 use fuzzy_core::scheduler::SchedulerConfig;
 use fuzzy_core::units::{FeedMmPerMin, Point3Mm};
-use fuzzy_firmware::config::{MOTION_CONFIG, SCHED_CONFIG, SETPOINT_RING, STEPS_PER_MM};
 use fuzzy_firmware::measure::{self, cycles, cycles_since, qemu_instructions};
-use fuzzy_firmware::motion::{Executor, Plan, Setpoint};
-use fuzzy_firmware::replay::{self, Clock, Report, Stat};
-use fuzzy_firmware::ring::Ring;
-use fuzzy_firmware::stepper::Axes;
 
 static SHAPES: [(&str, &[u8]); 3] = [
     (
@@ -136,23 +141,21 @@ fn main() -> ! {
     let Ok(mut plan) = Plan::new(MOTION_CONFIG) else {
         fuzzy_firmware::fail()
     };
-    if replay::anchor(&mut plan, Point3Mm::ORIGIN).is_err() {
+    let Ok(mut replay) = Replay::new(&mut plan, Point3Mm::ORIGIN) else {
         fuzzy_firmware::fail()
-    }
-    let mut exec = Executor::new(Point3Mm::ORIGIN);
+    };
+    let mut exec = TickExecutor::new(Point3Mm::ORIGIN);
     let mut ring: Ring<Setpoint, SETPOINT_RING> = Ring::new();
     let (mut ring_tx, mut ring_rx) = ring.split();
 
-    let mut here = Point3Mm::ORIGIN;
     let mut one = |name: &str,
                    config: SchedulerConfig,
                    path: &mut dyn Iterator<Item = Point3Mm>,
-                   events: bool,
-                   plan: &mut Plan|
+                   events: bool|
      -> Measured {
         let mut isr = Stat::default();
         let mut isr_clock = SysTick;
-        let r = replay::run(plan, config, here, path, events, &mut SysTick, |m, t| {
+        let r = replay.run(config, path, events, &mut SysTick, |m, t| {
             // What the background does with a generated tick ...
             let _ = ring_tx.enqueue(Setpoint::of(m, t));
             // ... and what the tick interrupt does with it.
@@ -166,7 +169,6 @@ fn main() -> ! {
             hprintln!("cost {}: {:?}", name, r.err());
             fuzzy_firmware::fail()
         };
-        here = r.end;
         let m = Measured { r, isr };
         print(name, events, &m);
         m
@@ -174,13 +176,7 @@ fn main() -> ! {
 
     let line_config =
         SchedulerConfig::new(FeedMmPerMin::from_int(5000), FeedMmPerMin::from_int(60));
-    let line = one(
-        "line",
-        line_config,
-        &mut replay::line(LINE_SEGMENTS),
-        false,
-        &mut plan,
-    );
+    let line = one("line", line_config, &mut replay::line(LINE_SEGMENTS), false);
     let mut all = [
         line.r.sched,
         line.r.push,
@@ -195,7 +191,7 @@ fn main() -> ! {
         .map(|s| (s, false))
         .chain(SHAPES.iter().map(|s| (s, true)));
     for ((name, data), events) in runs {
-        let m = one(name, SCHED_CONFIG, &mut points(data), events, &mut plan);
+        let m = one(name, SCHED_CONFIG, &mut points(data), events);
         for (a, b) in all
             .iter_mut()
             .zip([m.r.sched, m.r.push, m.r.gen, m.isr, m.r.overrides])

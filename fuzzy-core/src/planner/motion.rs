@@ -237,7 +237,9 @@ impl<const N: usize> Motion<N> {
     /// The tangential acceleration limit `ρ·min_a A_a`, mm/s².
     pub fn accel_limit_mm_s2(&self) -> fixed::types::I32F32 {
         let t = self.lim.tick_us as i128;
-        let per_s2 = self.lim.accel as i128 * 1_000_000_000_000 / (t * t);
+        let per_s2 = (self.lim.accel as i128 * 1_000_000_000_000)
+            .checked_div(t * t)
+            .unwrap_or(0);
         fixed::types::I32F32::from_bits(per_s2.clamp(0, i64::MAX as i128) as i64)
     }
 

@@ -6,76 +6,98 @@
 //! ```
 //!
 //! Output: CSV `seq,index,feed_mm_per_min`, then the final status on stderr.
+//! A development aid for the QEMU image; it speaks the same link client
+//! (`link::client`) as the system tests.
 
 use std::net::TcpStream;
 use std::path::PathBuf;
-use std::time::Duration;
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
 
-use fuzzy_core::scheduler::SchedulerConfig;
+use anyhow::{bail, Context, Result};
+use clap::Parser;
 use fuzzy_core::units::FeedMmPerMin;
-use link::Motion;
-use system_tests::firmware::{read_points, Firmware};
+use link::client::Connection;
+use link::{DeviceMsg, Motion};
 
-fn main() {
-    let mut args = std::env::args().skip(1);
-    let (mut path, mut addr, mut f_max, mut f_min) =
-        (None, "127.0.0.1:7878".to_string(), 3000.0, 60.0);
-    while let Some(a) = args.next() {
-        match a.as_str() {
-            "--addr" => addr = args.next().expect("--addr HOST:PORT"),
-            "--f-max" => {
-                f_max = args
-                    .next()
-                    .and_then(|v| v.parse().ok())
-                    .expect("--f-max MM_PER_MIN")
-            }
-            "--f-min" => {
-                f_min = args
-                    .next()
-                    .and_then(|v| v.parse().ok())
-                    .expect("--f-min MM_PER_MIN")
-            }
-            _ => path = Some(PathBuf::from(a)),
-        }
-    }
-    let Some(path) = path else {
-        eprintln!("usage: stream PATH.csv [--addr 127.0.0.1:7878] [--f-max 3000] [--f-min 60]");
-        std::process::exit(2);
-    };
-    let pts = read_points(&path);
-    let stream = TcpStream::connect(&addr).unwrap_or_else(|e| panic!("connect {addr}: {e}"));
-    let reader = stream.try_clone().expect("socket");
-    let mut fw = Firmware::over(Box::new(stream), Box::new(reader), None, PathBuf::from("-"));
-    // The hello went out at reset; the status tells us where the sequence is.
-    let s = fw.status();
-    fw.acked = s.next_seq;
-    fw.window_end = s.window_end;
-    for _ in 0..s.next_seq {
-        fw.queue_path_cmd(|seq| link::HostMsg::EndPath { seq });
-    }
-    fw.send_next = s.next_seq;
-    let config = SchedulerConfig::new(FeedMmPerMin::from_f64(f_max), FeedMmPerMin::from_f64(f_min));
-    fw.start_path(&config);
-    fw.points(&pts);
-    fw.end_path();
-    fw.flush(Duration::from_secs(3600));
-    let end = fw.poll_until(Duration::from_millis(200), Duration::from_secs(3600), |s| {
-        s.motion == Motion::Idle && fw_done(s, pts.len())
-    });
-    println!("seq,index,feed_mm_per_min");
-    for r in fw.scheduled_in_order() {
-        println!(
-            "{},{},{}",
-            r.seq,
-            r.index,
-            r.feed_bits as f64 / 4294967296.0
-        );
-    }
-    eprintln!("{:?}", end.last());
+/// Stream a CSV path (`x,y,z[,feed cap]`, mm, mm/min) to the firmware.
+#[derive(Parser)]
+struct Args {
+    /// The path.
+    path: PathBuf,
+    /// The firmware's link (QEMU's USART1).
+    #[arg(long, default_value = "127.0.0.1:7878")]
+    addr: String,
+    /// Largest scheduled feed, mm/min.
+    #[arg(long, default_value_t = 3000.0)]
+    f_max: f64,
+    /// Smallest scheduled feed, mm/min.
+    #[arg(long, default_value_t = 60.0)]
+    f_min: f64,
+    /// Give up after this many seconds.
+    #[arg(long, default_value_t = 3600)]
+    timeout_s: u64,
 }
 
-/// Every point scheduled and reached by the planner (`point_reached`
-/// counts the path's points from 1).
-fn fw_done(s: &link::Status, points: usize) -> bool {
-    s.points_held == 0 && s.point_reached as usize >= points
+fn main() -> ExitCode {
+    match run(Args::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("stream: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(args: Args) -> Result<()> {
+    let pts = host_sim::path_csv::read(&args.path)?;
+    let stream =
+        TcpStream::connect(&args.addr).with_context(|| format!("connecting to {}", args.addr))?;
+    let reader = stream.try_clone()?;
+    let mut conn = Connection::new(Box::new(stream), Box::new(reader));
+    let timeout = Duration::from_secs(args.timeout_s);
+    let mut scheduled = Vec::new();
+    let mut seen = |m: &DeviceMsg| {
+        if let DeviceMsg::Scheduled {
+            seq,
+            index,
+            feed_mm_per_min,
+            ..
+        } = *m
+        {
+            scheduled.push((seq, index, feed_mm_per_min));
+        }
+    };
+    // The hello went out at reset: continue the sequence where it is.
+    let s = conn.status(20, &mut seen)?;
+    conn.client_mut().resync(&s);
+    let c = conn.client_mut();
+    c.start_path(
+        FeedMmPerMin::from_f64(args.f_max).0.to_bits(),
+        FeedMmPerMin::from_f64(args.f_min).0.to_bits(),
+    );
+    for p in &pts {
+        c.point(p.pos.to_bits(), p.feed_cap.map(|f| f.0.to_bits()));
+    }
+    c.end_path();
+    conn.flush(timeout, &mut seen)?;
+    let deadline = Instant::now() + timeout;
+    let last = loop {
+        let s = conn.status(20, &mut seen)?;
+        // Every point scheduled and reached (`point_reached` counts from 1).
+        if s.motion == Motion::Idle && s.points_held == 0 && s.point_reached as usize >= pts.len() {
+            break s;
+        }
+        if Instant::now() > deadline {
+            bail!("the path did not finish within {} s", args.timeout_s);
+        }
+        std::thread::sleep(Duration::from_millis(200));
+    };
+    scheduled.sort_by_key(|r| r.0);
+    println!("seq,index,feed_mm_per_min");
+    for (seq, index, feed) in scheduled {
+        println!("{seq},{index},{}", feed as f64 / 4294967296.0);
+    }
+    eprintln!("{last:?}");
+    Ok(())
 }

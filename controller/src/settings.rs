@@ -1,14 +1,17 @@
-//! Build-time settings. Each can be changed without editing code through an
-//! environment variable at build time, e.g.
-//! `FW_TICK_HZ=2000 cargo build --release`.
+//! The controller's settings and sizes: machine limits and rates (fixed at
+//! build time, each from an environment variable, e.g.
+//! `FW_TICK_HZ=2000 cargo build --release`) and the capacities of its
+//! queues and lookaheads.
 //!
-//! This file depends on `fuzzy-core` only: the host tests include it
-//! (`#[path]`, in `tests/src/firmware.rs`) so that they plan with exactly the
-//! firmware's settings (they also check the firmware's `Hello`).
+//! The firmware, its cost benchmark and the host tests all read these
+//! constants from here; the host tests also check the firmware's `Hello`
+//! against them (a firmware built with other variables than the tests
+//! fails that check instead of comparing different machines).
 
 use fixed::types::{I16F16, I32F32};
-use fuzzy_core::planner::MotionConfig;
-use fuzzy_core::scheduler::SchedulerConfig;
+use fuzzy_core::lin2021::Lin2021Compact;
+use fuzzy_core::planner::{Motion, MotionConfig};
+use fuzzy_core::scheduler::{Scheduler, SchedulerConfig};
 use fuzzy_core::units::FeedMmPerMin;
 
 /// `value` parsed as a decimal `u32`, or `default` if absent or invalid.
@@ -98,6 +101,13 @@ pub const WS: usize = 30;
 pub const AVG: usize = 9;
 /// Points the scheduler holds (must exceed `1 + WS + AVG/2`).
 pub const SCHED_CAP: usize = 36;
+
+/// The fuzzy scheduler as the controller runs it: Lin et al.'s controller
+/// without its sampled-centroid table (the same outputs bit for bit).
+pub type Sched = Scheduler<&'static Lin2021Compact, WS, AVG, SCHED_CAP>;
+
+/// The velocity planner as the controller runs it.
+pub type Plan = Motion<PLANNER_POINTS>;
 
 /// Link command queue (USART task → scheduler), slots; the credit window
 /// is its free room (`ring::Ring<_, N>` holds `N − 1`).

@@ -1,0 +1,48 @@
+//! The motion controller's logic without the chip: everything the firmware
+//! does that is not pin, timer or UART wiring, built and tested on the host
+//! and built for `thumbv7em-none-eabihf` by the firmware.
+//!
+//! ```text
+//! link bytes ─► link::FrameReader ─► session: DeviceLink::on_frame ─► [ring: Cmd] ─► background:
+//!   feeder (fuzzy scheduler) ─► planning (velocity planner, ticks ahead) ─► [ring: Setpoint]
+//!   ─► tick: TickExecutor ─► stepper: step/dir pins
+//! ```
+//!
+//! | module | what |
+//! |---|---|
+//! | [`settings`] | machine limits and rates (build-time), sizes of every queue and lookahead |
+//! | [`command`] | the path commands queued from the link to the scheduler, checked on arrival |
+//! | [`feeder`] | commands into the fuzzy scheduler (first stage) |
+//! | [`planning`] | scheduled points into the velocity planner, setpoints out, the feeding policy (second stage) |
+//! | [`controls`] | hold, resume, override and Njiri et al.'s force loop |
+//! | [`tick`] | the tick's work: next setpoint to the axes, counters |
+//! | [`stepper`] | step/direction outputs on `embedded-hal` pins |
+//! | [`session`] | the device side of the link: sequence, credit, replies (sans-IO) |
+//! | [`tx`] | the transmit buffer and the background's reserve in it |
+//! | [`background`] | one pass of the firmware's idle loop |
+//! | [`ring`] | lock-free single-producer single-consumer ring, panic-free |
+//! | [`checksum`] | FNV-1a over commanded positions |
+//! | [`replay`] | whole paths in a fixed order: the cost benchmark and its host twin |
+//!
+//! The firmware's tasks call into these, nothing else: `tick` calls
+//! [`tick::TickExecutor::tick`], the USART interrupt feeds
+//! [`session::DeviceLink::on_frame`], idle runs
+//! [`background::Background::step`]. Every lock the firmware takes is
+//! passed in as an `rtic_core::Mutex` (RTIC's resource proxies implement
+//! it; host tests use a plain one).
+#![cfg_attr(not(test), no_std)]
+#![deny(missing_docs)]
+
+pub mod background;
+pub mod checksum;
+pub mod command;
+pub mod controls;
+pub mod feeder;
+pub mod planning;
+pub mod replay;
+pub mod ring;
+pub mod session;
+pub mod settings;
+pub mod stepper;
+pub mod tick;
+pub mod tx;

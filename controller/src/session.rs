@@ -1,0 +1,320 @@
+//! The device side of the link, without I/O: frames in, replies, commands
+//! and controls out (in the manner of smoltcp's `socket/tcp.rs`).
+//!
+//! The receive side calls [`DeviceLink::on_frame`] with every decoded frame
+//! (or why it could not be decoded); the background calls
+//! [`DeviceLink::on_taken`] for each command it takes from the queue and
+//! [`DeviceLink::poll`] once a pass, which returns credit to the host. The
+//! protocol's rules (`link` crate docs), as this side keeps them:
+//! - path commands (`StartPath`, `Point`, `EndPath`) carry sequence numbers;
+//!   only the next one is accepted, a repeat of an accepted one is
+//!   acknowledged again (a resend is harmless), a gap is refused with
+//!   `OutOfSequence` (the host goes back to `expected_seq`);
+//! - a path command is acknowledged only once it is in the queue, and
+//!   nothing leaves the queue except into the scheduler, so an acknowledged
+//!   command is never lost; everything the scheduler could refuse is checked
+//!   before the acknowledgement (`OutOfRange`);
+//! - the credit: every accepted command holds a queue slot until the
+//!   background takes it, so the host may send up to `taken + CMD_CREDIT`
+//!   (exclusive); past it, `NoCredit`;
+//! - hold, resume, override and force samples act at once (the background
+//!   applies them at its next pass) and are acknowledged; a status query is
+//!   answered at once;
+//! - every refused frame is answered with `Error { code, expected_seq }`
+//!   and counted; replies that find the transmit buffer full are dropped
+//!   and counted (the host's silence timeout recovers), never the
+//!   background's reports ([`crate::tx`]).
+
+use fuzzy_core::planner::MotionState;
+use link::{DeviceMsg, ErrorCode, HostMsg, Motion, Status};
+
+use crate::command::{config_from_link, point_from_link, Cmd};
+use crate::controls::{force_from_link, Controls};
+use crate::ring::Producer;
+use crate::settings::{
+    Plan, CMD_CREDIT, CMD_QUEUE, CREDIT_BATCH, FEED_MAX_MM_PER_MIN, PLANNER_POINTS, TICK_HZ,
+};
+use crate::tick::TickExecutor;
+use crate::tx::{TxBuffer, BACKGROUND_RESERVE};
+
+/// Sequence numbers and credit.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Session {
+    next_seq: u32,
+    /// Commands the background took from the queue.
+    taken: u32,
+    /// Taken since the last credit update sent.
+    taken_since_ack: u32,
+    bad_frames: u32,
+    tx_dropped: u32,
+}
+
+impl Session {
+    /// The next sequence number expected.
+    pub fn next_seq(&self) -> u32 {
+        self.next_seq
+    }
+
+    /// The credit limit (exclusive).
+    pub fn window_end(&self) -> u32 {
+        self.taken.wrapping_add(CMD_CREDIT)
+    }
+
+    /// Frames refused since boot.
+    pub fn bad_frames(&self) -> u32 {
+        self.bad_frames
+    }
+
+    /// Replies dropped for want of transmit room.
+    pub fn tx_dropped(&self) -> u32 {
+        self.tx_dropped
+    }
+
+    /// The acknowledgement of everything accepted, with the credit.
+    pub fn ack(&self) -> DeviceMsg {
+        DeviceMsg::Ack {
+            next_seq: self.next_seq,
+            window_end: self.window_end(),
+        }
+    }
+
+    /// A path command `seq` (`None`: its values were out of range): into
+    /// the queue if it is the next one.
+    fn accept(
+        &mut self,
+        seq: u32,
+        cmd: Option<Cmd>,
+        queue: &mut Producer<'_, Cmd, CMD_QUEUE>,
+    ) -> Result<(), ErrorCode> {
+        if seq < self.next_seq {
+            // A resend of something we have: acknowledge again.
+            return Ok(());
+        }
+        if seq > self.next_seq {
+            return Err(ErrorCode::OutOfSequence);
+        }
+        let cmd = cmd.ok_or(ErrorCode::OutOfRange)?;
+        queue.enqueue(cmd).map_err(|_| ErrorCode::NoCredit)?;
+        self.next_seq = self.next_seq.wrapping_add(1);
+        Ok(())
+    }
+}
+
+/// What the background publishes for status replies.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct BackgroundInfo {
+    /// Points in the scheduler's lookahead.
+    pub points_held: u16,
+    /// Points in the planner.
+    pub planned: u16,
+    /// The planner's path index.
+    pub point: u32,
+    /// Controlled stops for want of path.
+    pub underruns: u32,
+    /// Feed override in force, percent.
+    pub override_percent: u16,
+    /// Stack high-water mark, bytes.
+    pub stack: u32,
+    /// Setpoints generated since boot.
+    pub generated: u32,
+    /// Checksum of their positions (folded).
+    pub checksum: u32,
+}
+
+/// What the link's receive side and the background share: the session,
+/// the transmit buffer, the controls on their way to the planner and the
+/// background's figures. One lock guards it all.
+pub struct DeviceLink {
+    /// Sequence numbers and credit.
+    pub session: Session,
+    /// Framed replies waiting for the wire.
+    pub tx: TxBuffer,
+    /// Hold/resume/override/force, until the background takes them.
+    pub controls: Controls,
+    /// The background's latest figures.
+    pub info: BackgroundInfo,
+}
+
+impl Default for DeviceLink {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// What the receive side does with a message.
+enum Reply {
+    Ack,
+    Status,
+}
+
+impl DeviceLink {
+    /// At reset: nothing received, override 100 %.
+    pub const fn new() -> Self {
+        DeviceLink {
+            session: Session {
+                next_seq: 0,
+                taken: 0,
+                taken_since_ack: 0,
+                bad_frames: 0,
+                tx_dropped: 0,
+            },
+            tx: TxBuffer::new(),
+            controls: Controls {
+                hold: None,
+                override_percent: None,
+                force: None,
+            },
+            info: BackgroundInfo {
+                points_held: 0,
+                planned: 0,
+                point: 0,
+                underruns: 0,
+                override_percent: 100,
+                stack: 0,
+                generated: 0,
+                checksum: 0,
+            },
+        }
+    }
+
+    /// The hello sent once after reset: the settings in force (`plan`'s
+    /// acceleration limit, rounded up to mm/s²).
+    pub fn hello(&self, plan: &Plan) -> DeviceMsg {
+        let bits = plan.accel_limit_mm_s2().to_bits();
+        let accel = ((bits.max(0) as u64 + u32::MAX as u64) >> 32).min(u32::MAX as u64) as u32;
+        DeviceMsg::Hello {
+            tick_hz: TICK_HZ,
+            accel_mm_per_s2: accel,
+            window_end: self.session.window_end(),
+            feed_max_mm_per_min: FEED_MAX_MM_PER_MIN,
+            planner_points: PLANNER_POINTS as u16,
+        }
+    }
+
+    /// One frame from the wire (or why it could not be decoded): act on it,
+    /// queue the reply. `exec` gives the tick's state if a status is asked
+    /// for. Returns the refusal, if the frame was refused.
+    pub fn on_frame(
+        &mut self,
+        frame: Result<HostMsg, ErrorCode>,
+        queue: &mut Producer<'_, Cmd, CMD_QUEUE>,
+        exec: impl FnOnce() -> TickExecutor,
+    ) -> Option<ErrorCode> {
+        let reply = match frame.and_then(|m| self.handle(m, queue)) {
+            Ok(Reply::Ack) => self.session.ack(),
+            Ok(Reply::Status) => DeviceMsg::Status(self.status(&exec())),
+            Err(code) => {
+                self.session.bad_frames = self.session.bad_frames.wrapping_add(1);
+                let refused = DeviceMsg::Error {
+                    code,
+                    expected_seq: self.session.next_seq,
+                };
+                self.queue_reply(&refused);
+                return Some(code);
+            }
+        };
+        self.queue_reply(&reply);
+        None
+    }
+
+    fn queue_reply(&mut self, msg: &DeviceMsg) {
+        if !self.tx.send(msg, BACKGROUND_RESERVE) {
+            self.session.tx_dropped = self.session.tx_dropped.wrapping_add(1);
+        }
+    }
+
+    fn handle(
+        &mut self,
+        msg: HostMsg,
+        queue: &mut Producer<'_, Cmd, CMD_QUEUE>,
+    ) -> Result<Reply, ErrorCode> {
+        let (seq, cmd) = match msg {
+            HostMsg::StatusQuery => return Ok(Reply::Status),
+            HostMsg::Hold => {
+                self.controls.hold = Some(true);
+                return Ok(Reply::Ack);
+            }
+            HostMsg::Resume => {
+                self.controls.hold = Some(false);
+                return Ok(Reply::Ack);
+            }
+            HostMsg::Override { percent } => {
+                if !(link::OVERRIDE_MIN_PERCENT..=link::OVERRIDE_MAX_PERCENT).contains(&percent) {
+                    return Err(ErrorCode::OutOfRange);
+                }
+                self.controls.override_percent = Some(percent);
+                return Ok(Reply::Ack);
+            }
+            HostMsg::Force { fx_n_q16, fy_n_q16 } => {
+                let f = force_from_link(fx_n_q16, fy_n_q16).ok_or(ErrorCode::OutOfRange)?;
+                self.controls.force = Some(f);
+                return Ok(Reply::Ack);
+            }
+            HostMsg::StartPath {
+                seq,
+                f_max_mm_per_min,
+                f_min_mm_per_min,
+            } => (
+                seq,
+                config_from_link(f_max_mm_per_min, f_min_mm_per_min).map(Cmd::StartPath),
+            ),
+            HostMsg::Point {
+                seq,
+                pos_mm,
+                feed_cap_mm_per_min,
+            } => (
+                seq,
+                point_from_link(seq, pos_mm, feed_cap_mm_per_min).map(Cmd::point),
+            ),
+            HostMsg::EndPath { seq } => (seq, Some(Cmd::EndPath)),
+        };
+        self.session.accept(seq, cmd, queue)?;
+        Ok(Reply::Ack)
+    }
+
+    /// The background took a command from the queue: its slot is free.
+    pub fn on_taken(&mut self) {
+        self.session.taken = self.session.taken.wrapping_add(1);
+        self.session.taken_since_ack = self.session.taken_since_ack.wrapping_add(1);
+    }
+
+    /// Once a background pass (`busy`: it did work this pass): return the
+    /// credit of taken commands to the host, every [`CREDIT_BATCH`] taken
+    /// or as soon as the background has nothing else to do.
+    pub fn poll(&mut self, busy: bool) {
+        let n = self.session.taken_since_ack;
+        if (n >= CREDIT_BATCH || (n > 0 && !busy)) && self.tx.send(&self.session.ack(), 0) {
+            self.session.taken_since_ack = 0;
+        }
+    }
+
+    /// The status reply, with the tick's state `exec`.
+    pub fn status(&self, exec: &TickExecutor) -> Status {
+        let (l, i) = (&self.session, &self.info);
+        Status {
+            motion: match exec.now.state {
+                MotionState::Idle | MotionState::Done => Motion::Idle,
+                MotionState::Moving => Motion::Running,
+                MotionState::Holding => Motion::Held,
+                MotionState::Starved => Motion::Starved,
+            },
+            pos_mm: exec.now.pos.to_bits(),
+            feed_mm_per_min: exec.now.feed().0.to_bits(),
+            override_percent: i.override_percent,
+            next_seq: l.next_seq,
+            window_end: l.window_end(),
+            planned_points: i.planned,
+            points_held: i.points_held,
+            point_reached: i.point,
+            underruns: i.underruns,
+            bad_frames: l.bad_frames,
+            worst_tick_cycles: exec.worst_cycles,
+            stack_used_bytes: i.stack,
+            ticks: exec.ticks,
+            moving_ticks: exec.moving_ticks,
+            empty_ticks: exec.empty_ticks,
+            generated_ticks: i.generated,
+            positions_checksum: i.checksum,
+        }
+    }
+}
