@@ -20,7 +20,7 @@
 //! on the host), held only for short sections.
 
 use fuzzy_core::njiri::OverrideError;
-use fuzzy_core::planner::MotionError;
+use fuzzy_core::planner::{ConfigError, MotionError};
 use fuzzy_core::scheduler::SchedulerError;
 use fuzzy_core::units::Point3Mm;
 use rtic_core::Mutex;
@@ -59,6 +59,8 @@ pub enum StartError {
     Planner(MotionError),
     /// Bad force-loop settings.
     ForceLoop,
+    /// Bad planner settings.
+    PlannerSettings(ConfigError),
 }
 
 impl From<OverrideError> for StartError {

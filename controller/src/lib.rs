@@ -23,6 +23,7 @@
 //! | [`ring`] | lock-free single-producer single-consumer ring, panic-free |
 //! | [`checksum`] | FNV-1a over commanded positions |
 //! | [`replay`] | whole paths in a fixed order: the cost benchmark and its host twin |
+//! | `sim` | (feature `std`) the whole controller on the host: the firmware's tasks as methods |
 //!
 //! The firmware's tasks call into these, nothing else: `tick` calls
 //! [`tick::TickExecutor::tick`], the USART interrupt feeds
@@ -30,7 +31,7 @@
 //! [`background::Background::step`]. Every lock the firmware takes is
 //! passed in as an `rtic_core::Mutex` (RTIC's resource proxies implement
 //! it; host tests use a plain one).
-#![cfg_attr(not(test), no_std)]
+#![cfg_attr(not(any(test, feature = "std")), no_std)]
 #![deny(missing_docs)]
 
 pub mod background;
@@ -43,6 +44,8 @@ pub mod replay;
 pub mod ring;
 pub mod session;
 pub mod settings;
+#[cfg(feature = "std")]
+pub mod sim;
 pub mod stepper;
 pub mod tick;
 pub mod tx;
