@@ -1,6 +1,7 @@
 //! Puts `memory.x` (repository root) on the linker search path, and records
 //! the three test shapes, quantised exactly as the host does
-//! (`Point3Mm::from_f64`), as raw I32F32 bits for the cost benchmark.
+//! (`Point3Mm::from_f64`), as raw I32F32 bits for the cost benchmark. (The
+//! `FW_*` settings are read, and tracked, by the `controller` crate.)
 use std::env;
 use std::fs;
 use std::path::PathBuf;
@@ -12,18 +13,6 @@ fn main() {
     fs::copy("../memory.x", out.join("memory.x")).expect("copy ../memory.x");
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rerun-if-changed=../memory.x");
-    for var in [
-        "FW_TICK_HZ",
-        "FW_STEPS_PER_MM",
-        "FW_FEED_MAX_MM_PER_MIN",
-        "FW_AXIS_SPEED_MM_PER_MIN",
-        "FW_AXIS_ACCEL_MM_PER_S2",
-        "FW_JERK_MM_PER_S3",
-        "FW_CHORD_NM",
-        "FW_TANGENTIAL_SHARE_PERCENT",
-    ] {
-        println!("cargo:rerun-if-env-changed={var}");
-    }
     for shape in ["infinity", "trident", "butterfly"] {
         let src = format!("../tests/data/shapes/{shape}.csv");
         println!("cargo:rerun-if-changed={src}");

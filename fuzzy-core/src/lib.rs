@@ -44,7 +44,6 @@ pub mod contour;
 pub mod curvature;
 mod fixmath;
 pub mod fuzzy;
-pub mod interpolator;
 pub mod lin2021;
 pub mod lookahead;
 pub mod nagata;
