@@ -4,14 +4,18 @@
 //! credit, figures for status.
 //!
 //! Each pass, in order:
-//! 1. if the transmit buffer has the background's reserve free, the
+//! 1. if the transmit buffer has the background's reserve free: an abort
+//!    (the scheduler's lookahead dropped, the planner stopping), then the
 //!    controls the link received (a force sample first becomes an
 //!    override: [`ForceLoop`]) go to the planner, each reported;
 //! 2. the setpoint ring is filled (the planner runs `SETPOINT_RING − 1`
 //!    ticks ahead of the tick interrupt);
 //! 3. with the reserve free: a waiting scheduled point into the planner, or
 //!    else one scheduler step (a point of a finished path being drained, or
-//!    the next queued command), its output to the planner, reported;
+//!    the next queued command; commands voided by an abort are dropped),
+//!    its output to the planner, reported; while an abort is stopping the
+//!    tool, nothing new enters the planner, and once it is done its report
+//!    (`DeviceMsg::Aborted`) is sent;
 //! 4. credit back to the host ([`DeviceLink::poll`]);
 //! 5. the figures status replies report, when they changed.
 //!
@@ -23,6 +27,7 @@ use fuzzy_core::njiri::OverrideError;
 use fuzzy_core::planner::{ConfigError, MotionError};
 use fuzzy_core::scheduler::SchedulerError;
 use fuzzy_core::units::Point3Mm;
+use link::DeviceMsg;
 use rtic_core::Mutex;
 
 use crate::command::Cmd;
@@ -30,7 +35,7 @@ use crate::controls::{Controls, ForceLoop};
 use crate::feeder::Feeder;
 use crate::planning::{Dropped, PlanInput, Planning, Setpoint};
 use crate::ring::{Consumer, Producer};
-use crate::session::{BackgroundInfo, DeviceLink};
+use crate::session::{BackgroundInfo, DeviceLink, Taken};
 use crate::settings::{Plan, CMD_QUEUE, SETPOINT_RING};
 
 /// Something worth a log line (the background cannot log by itself).
@@ -47,6 +52,8 @@ pub enum Notice {
     /// A report of the planner's input found no transmit room (cannot
     /// happen: the reserve is checked first).
     ReportDropped,
+    /// An abort completed: the tool is at rest, the path dropped.
+    Aborted,
 }
 
 /// Why the background could not start.
@@ -75,6 +82,8 @@ pub struct Background<'a> {
     planning: Planning<'a>,
     force: ForceLoop,
     published: BackgroundInfo,
+    /// An abort in progress: commands and points dropped so far.
+    abort: Option<(u32, u32)>,
 }
 
 impl<'a> Background<'a> {
@@ -85,6 +94,7 @@ impl<'a> Background<'a> {
             planning: Planning::new(plan, start).map_err(StartError::Planner)?,
             force: ForceLoop::new()?,
             published: BackgroundInfo::default(),
+            abort: None,
         })
     }
 
@@ -112,7 +122,15 @@ impl<'a> Background<'a> {
         let mut busy = false;
         let room = link.lock(|l| l.tx.has_reserve());
 
-        // 1. Hold, resume, override, force samples.
+        // 1. Abort; hold, resume, override, force samples.
+        if room && link.lock(|l| l.take_abort()) {
+            busy = true;
+            let points = self.feeder.abort();
+            let (c, p) = self.abort.unwrap_or((0, 0));
+            self.abort = Some((c, p.wrapping_add(points)));
+            let input = self.planning.abort();
+            report(link, input, &mut notice);
+        }
         if room {
             let mut c = link.lock(|l| core::mem::take(&mut l.controls));
             self.force.apply(&mut c);
@@ -127,7 +145,28 @@ impl<'a> Background<'a> {
         self.planning.fill(setpoints);
 
         // 3. A waiting point into the planner, or one scheduler step.
-        if room && self.planning.waiting() {
+        if let Some((commands, points)) = self.abort {
+            // Drop what the abort voided; report it once the tool is at rest.
+            while link.lock(|l| l.drop_void(cmds)) {
+                self.abort = Some((commands.wrapping_add(1), points));
+                busy = true;
+            }
+            let (commands, points) = self.abort.unwrap_or((commands, points));
+            if let Some(planned) = self.planning.take_aborted() {
+                let pos_mm = self.planning.position().to_bits();
+                let msg = DeviceMsg::Aborted {
+                    commands,
+                    points: points.wrapping_add(planned),
+                    pos_mm,
+                };
+                if !link.lock(|l| l.tx.send(&msg, 0)) {
+                    notice(Notice::ReportDropped);
+                }
+                self.abort = None;
+                notice(Notice::Aborted);
+                busy = true;
+            }
+        } else if room && self.planning.waiting() {
             match self.planning.push_pending() {
                 Ok(Some(input)) => {
                     busy = true;
@@ -140,12 +179,20 @@ impl<'a> Background<'a> {
             let next = if self.feeder.is_draining() {
                 busy = true;
                 Ok(self.feeder.drain())
-            } else if let Some(cmd) = cmds.dequeue() {
-                busy = true;
-                link.lock(|l| l.on_taken());
-                self.feeder.command(cmd)
             } else {
-                Ok(None)
+                match link.lock(|l| l.take_command(cmds)) {
+                    Taken::Live(cmd) => {
+                        busy = true;
+                        self.feeder.command(cmd)
+                    }
+                    // Voided by an abort the background has not seen yet
+                    // cannot be: the abort is taken first (step 1).
+                    Taken::Void => {
+                        busy = true;
+                        Ok(None)
+                    }
+                    Taken::Nothing => Ok(None),
+                }
             };
             match next {
                 Ok(Some(s)) => match self.planning.take_point(&s) {

@@ -1,6 +1,6 @@
 //! What travels from the link to the scheduler, in order: path commands,
 //! checked when they arrive so that an acknowledged command is never
-//! refused later.
+//! refused later, and never accepted when it could not make progress.
 
 use fixed::types::I32F32;
 use fuzzy_core::scheduler::{PathPoint, SchedulerConfig};
@@ -37,8 +37,17 @@ impl Cmd {
     }
 }
 
+/// The slowest feed a path may ask for, mm/min: a feed cap or an F_max
+/// below it is refused (a path one bit of feed above zero would be
+/// accepted and then never finish). Grbl keeps the same floor
+/// (`MINIMUM_FEED_RATE`, 1.0 mm/min, `grbl/config.h`); the scheduler's
+/// slowest output is then a tenth of it, at which the planner still
+/// advances by thousands of position quanta a tick.
+pub const MIN_FEED_MM_PER_MIN: FeedMmPerMin = FeedMmPerMin::from_int(1);
+
 /// A point from the link's raw fields, if every value is in range for the
-/// scheduler (so that an acknowledged point is never refused later).
+/// scheduler (so that an acknowledged point is never refused later) and its
+/// feed cap, if any, at least [`MIN_FEED_MM_PER_MIN`].
 pub fn point_from_link(
     seq: u32,
     pos_mm: [i64; 3],
@@ -51,7 +60,7 @@ pub fn point_from_link(
     let feed_cap = match feed_cap_mm_per_min {
         Some(bits) => {
             let f = FeedMmPerMin(I32F32::from_bits(bits));
-            if !f.within_limits() {
+            if !f.within_limits() || f < MIN_FEED_MM_PER_MIN {
                 return None;
             }
             Some(f)
@@ -65,13 +74,14 @@ pub fn point_from_link(
     })
 }
 
-/// Scheduler settings from the link's raw fields, if valid.
+/// Scheduler settings from the link's raw fields, if valid and F_max is
+/// at least [`MIN_FEED_MM_PER_MIN`].
 pub fn config_from_link(f_max_bits: i64, f_min_bits: i64) -> Option<SchedulerConfig> {
     let c = SchedulerConfig::new(
         FeedMmPerMin(I32F32::from_bits(f_max_bits)),
         FeedMmPerMin(I32F32::from_bits(f_min_bits)),
     );
-    c.validate().ok().map(|_| c)
+    (c.f_max >= MIN_FEED_MM_PER_MIN && c.validate().is_ok()).then_some(c)
 }
 
 #[cfg(test)]
@@ -106,5 +116,16 @@ mod tests {
         assert!(config_from_link(60 << 32, 3000 << 32).is_none());
         assert!(config_from_link(0, 0).is_none());
         assert!(config_from_link(3000 << 32, 60 << 32).is_some());
+    }
+
+    #[test]
+    fn feeds_that_could_not_make_progress_are_refused() {
+        // One bit above zero, and just under the floor.
+        assert!(config_from_link(1, 0).is_none());
+        assert!(config_from_link((1 << 32) - 1, 0).is_none());
+        assert!(config_from_link(1 << 32, 0).is_some());
+        assert!(point_from_link(0, [0; 3], Some(1)).is_none());
+        assert!(point_from_link(0, [0; 3], Some(0)).is_none());
+        assert!(point_from_link(0, [0; 3], Some(1 << 32)).is_some());
     }
 }

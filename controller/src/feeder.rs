@@ -102,6 +102,17 @@ impl Feeder {
     pub fn take_path_end(&mut self) -> bool {
         core::mem::take(&mut self.ended)
     }
+
+    /// Drop the path (an abort): the points in the lookahead, a pending
+    /// change of settings. Returns how many points were dropped.
+    pub fn abort(&mut self) -> u32 {
+        let held = self.sched.held() as u32;
+        self.sched.abort();
+        self.draining = false;
+        self.ended = false;
+        self.after_drain = None;
+        held
+    }
 }
 
 #[cfg(test)]
@@ -178,6 +189,18 @@ mod tests {
         let s = out[51].expect("a point");
         assert_eq!(s.index, 0, "the second path starts its own indices");
         assert!(s.feed.to_f64() <= 600.0, "with its own F_max");
+    }
+
+    #[test]
+    fn an_abort_drops_the_lookahead_and_a_new_path_starts_clean() {
+        let mut f = Feeder::new().unwrap();
+        let out = run(&mut f, &(0..20).map(point).collect::<Vec<_>>());
+        assert!(out.is_empty(), "all still in the lookahead");
+        assert_eq!(f.abort(), 20);
+        assert_eq!(f.held(), 0);
+        let out = run(&mut f, &[point(100), point(101), Cmd::EndPath]);
+        let idx: Vec<u32> = out.iter().flatten().map(|s| s.index).collect();
+        assert_eq!(idx, vec![0, 1], "indices restart");
     }
 
     #[test]

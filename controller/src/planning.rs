@@ -13,6 +13,9 @@
 //!   start instead of being pushed ([`already_there`]);
 //! - hold, resume and override are applied between ticks, an override only
 //!   when it changes;
+//! - an abort drops a waiting point and holds; once the tool is at rest the
+//!   planner's buffer is dropped (`Motion::restart`, the path ended where
+//!   the tool is) and the hold released, so the next path starts there;
 //! - every input the planner takes is returned as a [`PlanInput`] with the
 //!   number of ticks generated before it, and every generated position
 //!   goes into a [`Checksum`]: the link reports both, so a host that feeds
@@ -177,6 +180,12 @@ pub struct Planning<'a> {
     generated: u32,
     /// Of every generated position since boot.
     checksum: Checksum,
+    /// Points pushed on the current path (the planner's indices 1..).
+    pushed: u32,
+    /// Stopping for an abort: points dropped so far.
+    aborting: Option<u32>,
+    /// A completed abort, not yet taken: the points it dropped.
+    aborted: Option<u32>,
 }
 
 impl<'a> Planning<'a> {
@@ -195,6 +204,9 @@ impl<'a> Planning<'a> {
             override_percent: 100,
             generated: 0,
             checksum: Checksum::default(),
+            pushed: 0,
+            aborting: None,
+            aborted: None,
         })
     }
 
@@ -229,6 +241,11 @@ impl<'a> Planning<'a> {
     /// The feed override in force, percent.
     pub fn override_percent(&self) -> u16 {
         self.override_percent
+    }
+
+    /// Where the planner has the tool (its last generated tick).
+    pub fn position(&self) -> Point3Mm {
+        self.here
     }
 
     /// Ticks generated since boot.
@@ -267,6 +284,27 @@ impl<'a> Planning<'a> {
             }
         }
         out
+    }
+
+    /// Abort: drop the waiting point, stop on the path as for a hold; once
+    /// at rest the buffer is dropped ([`Self::take_aborted`] then says how
+    /// many points were dropped in all). The event to report.
+    pub fn abort(&mut self) -> PlanInput {
+        let dropped = self.pending.take().is_some() as u32;
+        self.aborting = Some(self.aborting.unwrap_or(0).wrapping_add(dropped));
+        self.motion.set_hold(true);
+        self.event(link::PlanEvent::Abort)
+    }
+
+    /// Whether an abort is stopping the tool.
+    pub fn is_aborting(&self) -> bool {
+        self.aborting.is_some()
+    }
+
+    /// A completed abort, once: the points it dropped (waiting, buffered,
+    /// not reached).
+    pub fn take_aborted(&mut self) -> Option<u32> {
+        self.aborted.take()
     }
 
     /// Take a scheduled point (only when not [`Self::waiting`]); what the
@@ -316,6 +354,7 @@ impl<'a> Planning<'a> {
             self.motion.restart().map_err(Dropped)?;
             self.ended = false;
             self.point = 0;
+            self.pushed = 0;
             self.merged = already_there(&p.point, self.here);
             if self.merged {
                 self.pending = None;
@@ -325,6 +364,7 @@ impl<'a> Planning<'a> {
         match self.motion.push(p.point) {
             Ok(()) => {
                 self.pending = None;
+                self.pushed = self.pushed.wrapping_add(1);
                 Ok(Some(input))
             }
             Err(MotionError::Full | MotionError::PathEnded) => Ok(None),
@@ -346,7 +386,25 @@ impl<'a> Planning<'a> {
         self.here = t.pos;
         self.generated = self.generated.wrapping_add(1);
         self.checksum.add_pos(t.pos);
+        if let Some(dropped) = self.aborting {
+            if self.motion.at_rest() {
+                self.finish_abort(dropped);
+            }
+        }
         t
+    }
+
+    /// At rest after an abort: drop what is buffered, end the path here.
+    fn finish_abort(&mut self, dropped: u32) {
+        let unreached = self.pushed.saturating_sub(self.point);
+        // At rest: `restart` cannot refuse.
+        let _ = self.motion.restart();
+        self.motion.end_path();
+        self.motion.set_hold(false);
+        self.ended = true;
+        self.pushed = 0;
+        self.aborting = None;
+        self.aborted = Some(dropped.wrapping_add(unreached));
     }
 
     /// Fill the ring; returns how many setpoints were added.

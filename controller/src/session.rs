@@ -20,22 +20,51 @@
 //! - hold, resume, override and force samples act at once (the background
 //!   applies them at its next pass) and are acknowledged; a status query is
 //!   answered at once;
-//! - every refused frame is answered with `Error { code, expected_seq }`
-//!   and counted; replies that find the transmit buffer full are dropped
-//!   and counted (the host's silence timeout recovers), never the
-//!   background's reports ([`crate::tx`]).
+//! - every refused frame is counted and answered with `Error { code,
+//!   expected_seq }`, but replies to line noise (frames that do not decode:
+//!   framing, length, CRC, unknown or malformed messages, the wrong
+//!   direction) are rate-limited ([`NOISE_BURST`], [`NOISE_REFILL_US`]) and
+//!   never take the second half of the transmit buffer, so a flood of
+//!   garbage cannot crowd out the replies that matter (acknowledgements,
+//!   status, refusals of well-formed frames);
+//! - replies that find the transmit buffer full are dropped and counted
+//!   (the host's silence timeout recovers), never the background's reports
+//!   ([`crate::tx`]);
+//! - an abort (`HostMsg::Abort { next_seq }`) voids every path command
+//!   accepted so far: the background drops those still queued as it takes
+//!   them ([`DeviceLink::take_command`]) and stops the motion; the host's
+//!   next path command is `next_seq` (older ones arriving late are taken
+//!   for resends: acknowledged and ignored).
+//!
+//! Sequence numbers and the queue: commands leave the queue in order, so
+//! the next command taken has sequence number `offset + taken`; `offset` is
+//! zero until an abort moves the numbering on.
 
 use fuzzy_core::planner::MotionState;
 use link::{DeviceMsg, ErrorCode, HostMsg, Motion, Status};
 
 use crate::command::{config_from_link, point_from_link, Cmd};
 use crate::controls::{force_from_link, Controls};
-use crate::ring::Producer;
+use crate::ring::{Consumer, Producer};
 use crate::settings::{
     Plan, CMD_CREDIT, CMD_QUEUE, CREDIT_BATCH, FEED_MAX_MM_PER_MIN, PLANNER_POINTS, TICK_HZ,
+    TX_BUFFER,
 };
 use crate::tick::TickExecutor;
 use crate::tx::{TxBuffer, BACKGROUND_RESERVE};
+
+/// Replies to line noise in a burst, at most.
+pub const NOISE_BURST: u8 = 8;
+/// One more reply to line noise allowed per this many µs (20 a second:
+/// 200 bytes/s, 2 % of a 115 200-baud link).
+pub const NOISE_REFILL_US: u32 = 50_000;
+/// Replies to line noise leave this much of the transmit buffer free.
+pub const NOISE_KEEP: usize = TX_BUFFER / 2;
+
+/// Whether `a` comes before `b` in wrapping sequence order.
+fn before(a: u32, b: u32) -> bool {
+    (a.wrapping_sub(b) as i32) < 0
+}
 
 /// Sequence numbers and credit.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -43,10 +72,15 @@ pub struct Session {
     next_seq: u32,
     /// Commands the background took from the queue.
     taken: u32,
+    /// The sequence number of the first command taken (module docs).
+    offset: u32,
+    /// Commands up to this `taken` count are void (an abort).
+    void_until: u32,
     /// Taken since the last credit update sent.
     taken_since_ack: u32,
     bad_frames: u32,
     tx_dropped: u32,
+    noise_suppressed: u32,
 }
 
 impl Session {
@@ -55,9 +89,12 @@ impl Session {
         self.next_seq
     }
 
-    /// The credit limit (exclusive).
+    /// The credit limit (exclusive): the sequence number of the next
+    /// command taken, plus the queue's room.
     pub fn window_end(&self) -> u32 {
-        self.taken.wrapping_add(CMD_CREDIT)
+        self.offset
+            .wrapping_add(self.taken)
+            .wrapping_add(CMD_CREDIT)
     }
 
     /// Frames refused since boot.
@@ -68,6 +105,11 @@ impl Session {
     /// Replies dropped for want of transmit room.
     pub fn tx_dropped(&self) -> u32 {
         self.tx_dropped
+    }
+
+    /// Replies to line noise not sent (rate limit).
+    pub fn noise_suppressed(&self) -> u32 {
+        self.noise_suppressed
     }
 
     /// The acknowledgement of everything accepted, with the credit.
@@ -86,11 +128,11 @@ impl Session {
         cmd: Option<Cmd>,
         queue: &mut Producer<'_, Cmd, CMD_QUEUE>,
     ) -> Result<(), ErrorCode> {
-        if seq < self.next_seq {
+        if before(seq, self.next_seq) {
             // A resend of something we have: acknowledge again.
             return Ok(());
         }
-        if seq > self.next_seq {
+        if seq != self.next_seq {
             return Err(ErrorCode::OutOfSequence);
         }
         let cmd = cmd.ok_or(ErrorCode::OutOfRange)?;
@@ -98,6 +140,73 @@ impl Session {
         self.next_seq = self.next_seq.wrapping_add(1);
         Ok(())
     }
+
+    /// An abort: everything accepted is void, the host's next command is
+    /// `host_next` (or ours, if the host is behind).
+    fn abort(&mut self, host_next: u32) {
+        let next = if before(host_next, self.next_seq) {
+            self.next_seq
+        } else {
+            host_next
+        };
+        // Every command accepted so far, counted in `taken`.
+        self.void_until = self.next_seq.wrapping_sub(self.offset);
+        self.offset = next.wrapping_sub(self.void_until);
+        self.next_seq = next;
+    }
+}
+
+/// The rate limit of replies to line noise: a token bucket.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct NoiseLimit {
+    tokens: u8,
+    /// When the last token was added, µs.
+    since_us: u32,
+}
+
+impl NoiseLimit {
+    /// Whether a reply may go at `now_us` (takes a token).
+    fn allow(&mut self, now_us: u32) -> bool {
+        let refills = now_us.wrapping_sub(self.since_us) / NOISE_REFILL_US;
+        if refills > 0 {
+            let t = (self.tokens as u32).saturating_add(refills);
+            self.tokens = t.min(NOISE_BURST as u32) as u8;
+            self.since_us = self
+                .since_us
+                .wrapping_add(refills.wrapping_mul(NOISE_REFILL_US));
+        }
+        if self.tokens == 0 {
+            return false;
+        }
+        self.tokens -= 1;
+        true
+    }
+}
+
+/// Whether a refusal is of a frame that did not decode (line noise).
+fn is_noise(code: ErrorCode) -> bool {
+    matches!(
+        code,
+        ErrorCode::Framing
+            | ErrorCode::TooLong
+            | ErrorCode::TooShort
+            | ErrorCode::Crc
+            | ErrorCode::UnknownMessage
+            | ErrorCode::Malformed
+            | ErrorCode::Misdirected
+    )
+}
+
+/// What [`DeviceLink::take_command`] found.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Taken {
+    /// Nothing to take (the queue is empty, or an abort waits for the
+    /// background).
+    Nothing,
+    /// A command voided by an abort: dropped.
+    Void,
+    /// The next command.
+    Live(Cmd),
 }
 
 /// What the background publishes for status replies.
@@ -133,6 +242,9 @@ pub struct DeviceLink {
     pub controls: Controls,
     /// The background's latest figures.
     pub info: BackgroundInfo,
+    /// An abort arrived and the background has not taken it yet.
+    abort: bool,
+    noise: NoiseLimit,
 }
 
 impl Default for DeviceLink {
@@ -154,9 +266,12 @@ impl DeviceLink {
             session: Session {
                 next_seq: 0,
                 taken: 0,
+                offset: 0,
+                void_until: 0,
                 taken_since_ack: 0,
                 bad_frames: 0,
                 tx_dropped: 0,
+                noise_suppressed: 0,
             },
             tx: TxBuffer::new(),
             controls: Controls {
@@ -173,6 +288,11 @@ impl DeviceLink {
                 stack: 0,
                 generated: 0,
                 checksum: 0,
+            },
+            abort: false,
+            noise: NoiseLimit {
+                tokens: NOISE_BURST,
+                since_us: 0,
             },
         }
     }
@@ -191,13 +311,15 @@ impl DeviceLink {
         }
     }
 
-    /// One frame from the wire (or why it could not be decoded): act on it,
-    /// queue the reply. `exec` gives the tick's state if a status is asked
-    /// for. Returns the refusal, if the frame was refused.
+    /// One frame from the wire (or why it could not be decoded) at time
+    /// `now_us` (µs, wrapping): act on it, queue the reply. `exec` gives the
+    /// tick's state if a status is asked for. Returns the refusal, if the
+    /// frame was refused.
     pub fn on_frame(
         &mut self,
         frame: Result<HostMsg, ErrorCode>,
         queue: &mut Producer<'_, Cmd, CMD_QUEUE>,
+        now_us: u32,
         exec: impl FnOnce() -> TickExecutor,
     ) -> Option<ErrorCode> {
         let reply = match frame.and_then(|m| self.handle(m, queue)) {
@@ -209,16 +331,22 @@ impl DeviceLink {
                     code,
                     expected_seq: self.session.next_seq,
                 };
-                self.queue_reply(&refused);
+                if !is_noise(code) {
+                    self.queue_reply(&refused, BACKGROUND_RESERVE);
+                } else if self.noise.allow(now_us) {
+                    self.queue_reply(&refused, NOISE_KEEP);
+                } else {
+                    self.session.noise_suppressed = self.session.noise_suppressed.wrapping_add(1);
+                }
                 return Some(code);
             }
         };
-        self.queue_reply(&reply);
+        self.queue_reply(&reply, BACKGROUND_RESERVE);
         None
     }
 
-    fn queue_reply(&mut self, msg: &DeviceMsg) {
-        if !self.tx.send(msg, BACKGROUND_RESERVE) {
+    fn queue_reply(&mut self, msg: &DeviceMsg, keep: usize) {
+        if !self.tx.send(msg, keep) {
             self.session.tx_dropped = self.session.tx_dropped.wrapping_add(1);
         }
     }
@@ -250,6 +378,11 @@ impl DeviceLink {
                 self.controls.force = Some(f);
                 return Ok(Reply::Ack);
             }
+            HostMsg::Abort { next_seq } => {
+                self.session.abort(next_seq);
+                self.abort = true;
+                return Ok(Reply::Ack);
+            }
             HostMsg::StartPath {
                 seq,
                 f_max_mm_per_min,
@@ -272,10 +405,39 @@ impl DeviceLink {
         Ok(Reply::Ack)
     }
 
-    /// The background took a command from the queue: its slot is free.
-    pub fn on_taken(&mut self) {
+    /// The background takes the next command (under the lock, so that the
+    /// receive side sees the queue and the count change together).
+    pub fn take_command(&mut self, queue: &mut Consumer<'_, Cmd, CMD_QUEUE>) -> Taken {
+        let void = before(self.session.taken, self.session.void_until);
+        if !void && self.abort {
+            // The background handles the abort first.
+            return Taken::Nothing;
+        }
+        let Some(cmd) = queue.dequeue() else {
+            return Taken::Nothing;
+        };
         self.session.taken = self.session.taken.wrapping_add(1);
         self.session.taken_since_ack = self.session.taken_since_ack.wrapping_add(1);
+        if void {
+            Taken::Void
+        } else {
+            Taken::Live(cmd)
+        }
+    }
+
+    /// Drop the next command if an abort voided it; whether one was.
+    pub fn drop_void(&mut self, queue: &mut Consumer<'_, Cmd, CMD_QUEUE>) -> bool {
+        if !before(self.session.taken, self.session.void_until) || queue.dequeue().is_none() {
+            return false;
+        }
+        self.session.taken = self.session.taken.wrapping_add(1);
+        self.session.taken_since_ack = self.session.taken_since_ack.wrapping_add(1);
+        true
+    }
+
+    /// An abort the background has to carry out, once.
+    pub fn take_abort(&mut self) -> bool {
+        core::mem::take(&mut self.abort)
     }
 
     /// Once a background pass (`busy`: it did work this pass): return the

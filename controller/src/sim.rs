@@ -82,14 +82,21 @@ impl VirtualDevice {
         })
     }
 
-    /// Bytes from the wire (the receive interrupt).
+    /// Bytes from the wire (the receive interrupt), at the time of the
+    /// current tick.
     pub fn receive(&mut self, bytes: &[u8]) {
+        let now_us = self.now_us();
         for &b in bytes {
             if let Some(frame) = self.reader.push::<HostMsg>(b) {
                 let exec = self.exec;
-                self.link.on_frame(frame, &mut self.cmd_tx, || exec);
+                self.link.on_frame(frame, &mut self.cmd_tx, now_us, || exec);
             }
         }
+    }
+
+    /// The device's clock: ticks so far × the tick period, µs (wrapping).
+    pub fn now_us(&self) -> u32 {
+        self.exec.ticks.wrapping_mul(MOTION_CONFIG.tick_us)
     }
 
     /// One background pass; whether it did work.

@@ -280,9 +280,13 @@ fn bad_frames_get_error_replies_and_change_nothing() {
     let mut truncated = good.clone();
     let n = truncated.len();
     truncated.drain(n - 5..n - 1);
-    let raw = |payload: &[u8]| {
-        let crc = crc32(payload);
-        let mut body = payload.to_vec();
+    let raw = |message: &[u8]| {
+        let payload: Vec<u8> = [<HostMsg as link::Message>::TAG]
+            .into_iter()
+            .chain(message.iter().copied())
+            .collect();
+        let crc = crc32(&payload);
+        let mut body = payload.clone();
         body.extend(crc.to_le_bytes());
         let mut out = vec![0u8; body.len() + 4];
         let n = cobs_encode(&body, &mut out);
@@ -332,13 +336,14 @@ fn bad_frames_get_error_replies_and_change_nothing() {
         b.dev.receive(bytes);
     }
     b.deliver();
-    // A lost tail may also break the COBS chain (framing, not CRC).
+    // A flipped bit or a lost tail may also break the COBS chain (framing,
+    // not CRC).
     let codes: Vec<ErrorCode> = b
         .errors()
         .iter()
         .enumerate()
         .map(|(i, e)| match (i, e.0) {
-            (1, ErrorCode::Framing) => ErrorCode::Crc,
+            (0 | 1, ErrorCode::Framing) => ErrorCode::Crc,
             (_, c) => c,
         })
         .collect();
@@ -567,4 +572,182 @@ fn a_point_beyond_the_scheduler_capacity_never_gets_acknowledged_and_lost() {
     assert_eq!(b.scheduled().len(), pts.len());
     let f = FeedMmPerMin(fixed::types::I32F32::from_bits(b.scheduled()[10].2));
     assert!(f.to_f64() > 0.0);
+}
+
+#[test]
+fn an_abort_stops_under_control_drops_the_path_and_the_next_path_runs() {
+    let pts = line(400, 0.5, 0.0);
+    let mut b = Bench::new();
+    b.path(&pts, true);
+    let cruise = b.run_until(20_000, |s| feed(s) >= 2997.0);
+    let abort = b.client.abort();
+    b.send(&abort);
+    // A new path at once, from wherever the tool stops, back to x = −5.
+    let back = [Point3Mm::from_f64(-5.0, 0.0, 0.0).unwrap()];
+    let seqs = b.path(&back, true);
+    let goal = back[0].to_bits();
+    let end = b.run_until(50_000, |s| s.motion == Motion::Idle && s.pos_mm == goal);
+    let Some(DeviceMsg::Aborted {
+        commands,
+        points,
+        pos_mm,
+    }) = b.client.aborted()
+    else {
+        panic!("no abort report: {:?}", b.inbox.last())
+    };
+    let stop_x = pos_mm[0] as f64 / 4294967296.0;
+    let cruise_x = cruise.pos_mm[0] as f64 / 4294967296.0;
+    // 50 mm/s stopping at the planner's limit takes a few mm, and the
+    // ring's 16 ticks at 50 mm/s are 0.8 mm.
+    assert!(
+        stop_x > cruise_x && stop_x < cruise_x + 10.0,
+        "{cruise_x} -> {stop_x}"
+    );
+    assert!(stop_x < 199.0, "stopped well before the path's end");
+    assert!(
+        commands + points > 0,
+        "something was discarded: {commands} commands, {points} points"
+    );
+    // Everything after the stop belongs to the new path: the tool never
+    // went beyond the stop point.
+    let xs: Vec<f64> = b
+        .dev
+        .axes
+        .positions
+        .iter()
+        .map(|p| p.to_bits()[0] as f64 / 4294967296.0)
+        .collect();
+    let max = xs.iter().cloned().fold(f64::MIN, f64::max);
+    assert!(
+        (max - stop_x).abs() < 1e-9,
+        "went on to {max} after stopping at {stop_x}"
+    );
+    assert_eq!(end.pos_mm, goal);
+    assert!(b.scheduled().iter().any(|g| g.0 == seqs[0]));
+    assert!(b.events().contains(&PlanEvent::Abort));
+    assert_eq!(end.underruns, 0);
+}
+
+#[test]
+fn a_feed_too_low_to_make_progress_is_refused_and_the_slowest_allowed_finishes() {
+    let mut b = Bench::new();
+    b.send(&HostMsg::StartPath {
+        seq: 0,
+        f_max_mm_per_min: 1,
+        f_min_mm_per_min: 0,
+    });
+    b.send(&HostMsg::Point {
+        seq: 0,
+        pos_mm: [1 << 30, 0, 0],
+        feed_cap_mm_per_min: Some(1),
+    });
+    b.deliver();
+    assert_eq!(
+        b.errors(),
+        vec![(ErrorCode::OutOfRange, 0), (ErrorCode::OutOfRange, 0)]
+    );
+    // 1 mm/min over 0.05 mm: 3 s at full feed; the scheduler's slowest
+    // output is a tenth of F_max, so at most 30 s.
+    let pts: Vec<Point3Mm> = (1..=40)
+        .map(|i| Point3Mm::from_f64(i as f64 * 0.00125, 0.0, 0.0).unwrap())
+        .collect();
+    b.client.start_path(1 << 32, 0);
+    for p in &pts {
+        b.client.point(p.to_bits(), Some(1 << 32));
+    }
+    b.client.end_path();
+    let goal = pts.last().unwrap().to_bits();
+    let s = b.run_until(40_000, |s| s.motion == Motion::Idle && s.pos_mm == goal);
+    assert!(s.ticks <= 40_000);
+}
+
+#[test]
+fn a_message_with_trailing_bytes_is_refused_and_does_nothing() {
+    let pts = line(300, 0.5, 0.0);
+    let mut b = Bench::new();
+    b.path(&pts, true);
+    b.run_until(20_000, |s| feed(s) >= 2997.0);
+    // `Hold` and one byte more, inside a valid CRC.
+    let tag = <HostMsg as link::Message>::TAG;
+    let payload = [tag, 4, 0];
+    let mut body = payload.to_vec();
+    body.extend(crc32(&payload).to_le_bytes());
+    let mut out = vec![0u8; body.len() + 2];
+    let n = cobs_encode(&body, &mut out);
+    out.truncate(n);
+    out.push(0);
+    b.dev.receive(&out);
+    b.run(200);
+    let s = b.status();
+    assert!(feed(&s) >= 2997.0, "still running: {s:?}");
+    assert_eq!(b.errors().last().map(|e| e.0), Some(ErrorCode::Malformed));
+}
+
+#[test]
+fn a_flood_of_noise_gets_rate_limited_replies_and_status_is_still_answered() {
+    let mut b = Bench::new();
+    // 2000 frames too short to hold a CRC, in one tick.
+    let noise: Vec<u8> = std::iter::repeat_n([0x02u8, 0x11, 0x00], 2000)
+        .flatten()
+        .collect();
+    b.dev.receive(&noise);
+    b.dev.receive(&frame(&HostMsg::StatusQuery));
+    b.deliver();
+    let errors = b.errors().len();
+    assert!(
+        errors <= controller::session::NOISE_BURST as usize,
+        "{errors} noise replies in one burst"
+    );
+    assert!(
+        matches!(b.inbox.last(), Some(DeviceMsg::Status(_))),
+        "the status query is answered after the flood"
+    );
+    let s = b.status();
+    assert!(s.bad_frames >= 2000);
+    // Over 10 s of flood, replies stay at the rate limit.
+    for _ in 0..10_000 {
+        b.dev.receive(&[0x02, 0x11, 0x00]);
+        b.dev.run_tick();
+        b.deliver();
+    }
+    let replies = b.errors().len() - errors;
+    let allowed = 10_000_000 / controller::session::NOISE_REFILL_US as usize + 1;
+    assert!(replies <= allowed, "{replies} replies, {allowed} allowed");
+    assert!(
+        replies >= allowed / 2,
+        "{replies}: refused frames are still answered"
+    );
+}
+
+mod random_bytes {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        /// After any byte stream, a delimiter and a status query bring a
+        /// status reply: the receiver resynchronises within those bytes.
+        #[test]
+        fn never_stop_the_device_answering_a_status_query(
+            bytes in proptest::collection::vec(any::<u8>(), 0..3000),
+            runs in proptest::collection::vec((any::<u8>(), 1usize..400), 0..4),
+        ) {
+            let mut b = Bench::new();
+            b.dev.receive(&bytes);
+            // Long runs of one byte (no delimiter, or only delimiters).
+            for (byte, n) in runs {
+                b.dev.receive(&vec![byte; n * 100]);
+            }
+            b.deliver();
+            b.inbox.clear();
+            let mut tail = vec![0u8];
+            tail.extend(frame(&HostMsg::StatusQuery));
+            b.dev.receive(&tail);
+            b.deliver();
+            prop_assert!(
+                b.inbox.iter().any(|m| matches!(m, DeviceMsg::Status(_))),
+                "no status reply: {:?}", b.inbox
+            );
+        }
+    }
 }

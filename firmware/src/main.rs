@@ -40,6 +40,7 @@ mod app {
     struct Shared {
         link: DeviceLink,
         exec: TickExecutor,
+        port: UsartTx,
     }
 
     #[local]
@@ -49,7 +50,6 @@ mod app {
         rx: UsartRx,
         reader: FrameReader,
         cmd_tx: Producer<'static, Cmd, CMD_QUEUE>,
-        tx_port: UsartTx,
         cmd_rx: Consumer<'static, Cmd, CMD_QUEUE>,
         sp_tx: Producer<'static, Setpoint, SETPOINT_RING>,
         background: Background<'static>,
@@ -88,6 +88,7 @@ mod app {
             Shared {
                 link,
                 exec: TickExecutor::new(Point3Mm::ORIGIN),
+                port: b.tx,
             },
             Local {
                 sp_rx,
@@ -95,7 +96,6 @@ mod app {
                 rx: b.rx,
                 reader: FrameReader::new(),
                 cmd_tx,
-                tx_port: b.tx,
                 cmd_rx,
                 sp_tx,
                 background,
@@ -125,8 +125,10 @@ mod app {
         measure::count_tick();
     }
 
-    /// Every received byte; frames to the session as they complete.
-    #[task(binds = USART1, priority = 2, local = [rx, reader, cmd_tx], shared = [link, exec])]
+    /// Every received byte; frames to the session as they complete, each
+    /// reply started on the wire at once (so that replies go out even while
+    /// a flood of bytes keeps the background from running).
+    #[task(binds = USART1, priority = 2, local = [rx, reader, cmd_tx], shared = [link, exec, port])]
     fn link_rx(cx: link_rx::Context) {
         let (local, mut sh) = (cx.local, cx.shared);
         while let Some(byte) = local.rx.read() {
@@ -134,23 +136,24 @@ mod app {
                 continue;
             };
             let exec = &mut sh.exec;
+            let now = measure::uptime_us();
             let refused = sh
                 .link
-                .lock(|l| l.on_frame(frame, local.cmd_tx, || exec.lock(|e| *e)));
+                .lock(|l| l.on_frame(frame, local.cmd_tx, now, || exec.lock(|e| *e)));
             if let Some(code) = refused {
                 defmt::warn!("frame refused: {}", code);
             }
+            (&mut sh.link, &mut sh.port).lock(|l, p| l.tx.drain(|b| p.try_write(b)));
         }
     }
 
     /// Background: transmit, one pass, sleep when there is nothing to do
     /// (a tick frees a ring slot, a byte brings a command).
-    #[idle(local = [cmd_rx, sp_tx, tx_port, background, probe: StackProbe = StackProbe::new()], shared = [link])]
+    #[idle(local = [cmd_rx, sp_tx, background, probe: StackProbe = StackProbe::new()], shared = [link, port])]
     fn idle(cx: idle::Context) -> ! {
         let (local, mut sh) = (cx.local, cx.shared);
         loop {
-            let port = &mut *local.tx_port;
-            let pending = sh.link.lock(|l| l.tx.drain(|b| port.try_write(b)));
+            let pending = (&mut sh.link, &mut sh.port).lock(|l, p| l.tx.drain(|b| p.try_write(b)));
             let stack = local.probe.step(256);
             let busy = local
                 .background

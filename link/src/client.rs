@@ -48,6 +48,7 @@ pub struct Client {
     hello: Option<Hello>,
     last_status: Option<Status>,
     resends: u32,
+    aborted: Option<DeviceMsg>,
 }
 
 impl Client {
@@ -143,8 +144,28 @@ impl Client {
                     self.go_back(expected_seq);
                 }
             }
+            DeviceMsg::Aborted { .. } => self.aborted = Some(*m),
             DeviceMsg::Scheduled { .. } | DeviceMsg::Planned { .. } => {}
         }
+    }
+
+    /// Abort the path (the message to send now): everything queued or sent
+    /// and not yet planned is void, on both sides; commands queued from now
+    /// on start a new path with the next sequence number.
+    pub fn abort(&mut self) -> HostMsg {
+        self.outbox.clear();
+        self.base = self.send_next;
+        self.acked = self.send_next;
+        self.aborted = None;
+        HostMsg::Abort {
+            next_seq: self.send_next,
+        }
+    }
+
+    /// The controller's report of the last abort, once it came
+    /// (`DeviceMsg::Aborted`).
+    pub fn aborted(&self) -> Option<DeviceMsg> {
+        self.aborted
     }
 
     /// No reply for a while with commands unacknowledged: after a status
@@ -416,6 +437,25 @@ mod tests {
             | HostMsg::EndPath { seq } => seq,
             _ => panic!("not a path command: {m:?}"),
         }
+    }
+
+    #[test]
+    fn an_abort_voids_what_was_queued_and_numbers_on() {
+        let mut c = Client::new();
+        for i in 0..6 {
+            c.point([i, 0, 0], None);
+        }
+        c.on_message(&ack(0, 4));
+        assert_eq!(drain(&mut c), vec![0, 1, 2, 3]);
+        let Some(HostMsg::Abort { next_seq }) = Some(c.abort()) else {
+            unreachable!()
+        };
+        assert_eq!(next_seq, 4, "after everything sent");
+        assert!(c.all_acked(), "4 and 5 were never sent: dropped");
+        // The controller acknowledges the abort with the new numbering.
+        c.on_message(&ack(4, 12));
+        assert_eq!(c.start_path(3000 << 32, 0), 4);
+        assert_eq!(drain(&mut c), vec![4]);
     }
 
     fn drain(c: &mut Client) -> Vec<u32> {

@@ -3,11 +3,17 @@
 //! One frame carries one message:
 //!
 //! ```text
-//! COBS( postcard(message) ‖ CRC-32/ISO-HDLC(postcard bytes), little endian ) ‖ 0x00
+//! COBS( tag ‖ postcard(message) ‖ CRC-32/ISO-HDLC(tag ‖ postcard bytes), little endian ) ‖ 0x00
 //! ```
 //!
+//! - the tag byte says which way the message goes and the protocol version
+//!   ([`Message::TAG`]: `0xA0 |` [`PROTOCOL_VERSION`] `<< 1`, plus 1 from
+//!   the controller): a host's message never decodes on another host, nor a
+//!   controller's on a controller ([`ErrorCode::Misdirected`]), and a peer
+//!   of another version is told so instead of misreading it;
 //! - [`postcard`] serialises the messages ([`HostMsg`], [`DeviceMsg`]): varint
-//!   integers, enum variants by index;
+//!   integers, enum variants by index; a frame must be consumed exactly
+//!   (bytes after the message: [`ErrorCode::Malformed`]);
 //! - the CRC ([`crc`], CRC-32 as in Ethernet/zlib) catches corrupted bytes;
 //! - COBS ([`cobs`]) removes every zero byte, so `0x00` marks the end of a
 //!   frame and a receiver resynchronises on the next one after garbage.
@@ -35,11 +41,33 @@
 pub mod client;
 
 use crc::{Crc, CRC_32_ISO_HDLC};
+use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
+
+/// The protocol's version (in every frame's tag byte).
+pub const PROTOCOL_VERSION: u8 = 2;
+
+/// A message of the link: which way it goes (its tag).
+pub trait Message: Serialize + DeserializeOwned {
+    /// The tag byte that starts its frames.
+    const TAG: u8;
+}
+
+/// Tags start at `0xA0`, far above a version-1 frame's first byte (its
+/// message's variant index, below 16).
+const TAG_BASE: u8 = 0xA0;
+
+impl Message for HostMsg {
+    const TAG: u8 = TAG_BASE | (PROTOCOL_VERSION << 1);
+}
+
+impl Message for DeviceMsg {
+    const TAG: u8 = TAG_BASE | (PROTOCOL_VERSION << 1) | 1;
+}
 
 /// Largest frame on the wire, delimiter included, bytes.
 pub const FRAME_MAX: usize = 128;
-/// Largest postcard payload, bytes.
+/// Largest payload (tag and postcard bytes), bytes.
 pub const PAYLOAD_MAX: usize = 112;
 /// CRC bytes after the payload.
 pub const CRC_LEN: usize = 4;
@@ -109,6 +137,18 @@ pub enum HostMsg {
         fx_n_q16: i32,
         /// Peak |F_y|, N, Q16.16 bits.
         fy_n_q16: i32,
+    },
+    /// Abort (immediate; Grbl's soft reset): the motion stops under control
+    /// on the path (as a feed hold does), then every path command queued or
+    /// held in the lookahead is dropped and the planner's buffer flushed;
+    /// [`DeviceMsg::Aborted`] reports what was discarded and where the tool
+    /// stopped. Acknowledged at once. The host's next path command will be
+    /// `next_seq`: everything it sent before is void (a late copy is
+    /// acknowledged and ignored), so it may start a new path at once.
+    Abort {
+        /// The sequence number of the host's next path command (at least
+        /// the controller's next expected one).
+        next_seq: u32,
     },
 }
 
@@ -197,6 +237,8 @@ pub enum PlanEvent {
     Resume,
     /// A new feed override, percent.
     Override(u16),
+    /// An abort: the planner stops as for a hold, then drops its buffer.
+    Abort,
 }
 
 /// Why a frame or command was refused.
@@ -225,6 +267,9 @@ pub enum ErrorCode {
     NoCredit,
     /// Refused by the scheduler (e.g. a point before `StartPath`).
     Rejected,
+    /// A message that goes the other way, or of another protocol version
+    /// (the tag byte, [`Message::TAG`]).
+    Misdirected,
 }
 
 /// Controller to host.
@@ -284,6 +329,17 @@ pub enum DeviceMsg {
         /// Points the velocity planner buffers.
         planner_points: u16,
     },
+    /// An abort completed ([`HostMsg::Abort`]): the tool is at rest at
+    /// `pos_mm`, and this much was discarded.
+    Aborted {
+        /// Path commands dropped from the queue.
+        commands: u32,
+        /// Points dropped from the scheduler's lookahead and the planner
+        /// (not reached).
+        points: u32,
+        /// Where the tool stopped, mm, I32F32 bits per axis.
+        pos_mm: [I32F32Bits; 3],
+    },
 }
 
 /// Why encoding or decoding failed.
@@ -308,9 +364,13 @@ impl core::fmt::Display for FrameError {
 
 /// Encode `msg` as a frame (delimiter included) into `out`; returns its
 /// length.
-pub fn encode<T: Serialize>(msg: &T, out: &mut [u8]) -> Result<usize, FrameError> {
+pub fn encode<M: Message>(msg: &M, out: &mut [u8]) -> Result<usize, FrameError> {
     let mut raw = [0u8; PAYLOAD_MAX + CRC_LEN];
-    let n = postcard::to_slice(msg, &mut raw[..PAYLOAD_MAX])
+    raw[0] = M::TAG;
+    let body = raw
+        .get_mut(1..PAYLOAD_MAX)
+        .ok_or(FrameError::BufferTooSmall)?;
+    let n = 1 + postcard::to_slice(msg, body)
         .map_err(|_| FrameError::BufferTooSmall)?
         .len();
     let (payload, rest) = raw.split_at_mut(n.min(PAYLOAD_MAX));
@@ -333,10 +393,10 @@ pub fn encode_device(msg: &DeviceMsg, out: &mut [u8]) -> Result<usize, FrameErro
     encode(msg, out)
 }
 
-/// Check and decode one frame's content (COBS already undone): the
-/// postcard payload followed by its CRC.
-pub fn decode_payload<'de, T: Deserialize<'de>>(body: &'de [u8]) -> Result<T, ErrorCode> {
-    if body.len() <= CRC_LEN {
+/// Check and decode one frame's content (COBS already undone): the tag,
+/// the postcard payload, its CRC. The message must use every byte.
+pub fn decode_payload<M: Message>(body: &[u8]) -> Result<M, ErrorCode> {
+    if body.len() <= CRC_LEN + 1 {
         return Err(ErrorCode::TooShort);
     }
     let (payload, crc) = body
@@ -349,8 +409,13 @@ pub fn decode_payload<'de, T: Deserialize<'de>>(body: &'de [u8]) -> Result<T, Er
     if CRC32.checksum(payload) != u32::from_le_bytes(want) {
         return Err(ErrorCode::Crc);
     }
-    match postcard::from_bytes::<T>(payload) {
-        Ok(m) => Ok(m),
+    let (&tag, message) = payload.split_first().ok_or(ErrorCode::TooShort)?;
+    if tag != M::TAG {
+        return Err(ErrorCode::Misdirected);
+    }
+    match postcard::take_from_bytes::<M>(message) {
+        Ok((m, [])) => Ok(m),
+        Ok(_) => Err(ErrorCode::Malformed),
         // serde reports an unknown variant index as a custom error.
         Err(postcard::Error::DeserializeBadEnum | postcard::Error::SerdeDeCustom) => {
             Err(ErrorCode::UnknownMessage)
@@ -395,7 +460,7 @@ impl FrameReader {
     /// Take one byte. `None` while a frame is incomplete (and for empty
     /// frames, i.e. repeated delimiters); at a delimiter, the frame's
     /// message or why it was refused.
-    pub fn push<T: for<'de> Deserialize<'de>>(&mut self, byte: u8) -> Option<Result<T, ErrorCode>> {
+    pub fn push<M: Message>(&mut self, byte: u8) -> Option<Result<M, ErrorCode>> {
         if byte != DELIMITER {
             self.started = true;
             if self.overflow || self.broken {
@@ -439,7 +504,7 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    fn roundtrip<T: Serialize + for<'de> Deserialize<'de> + PartialEq + core::fmt::Debug>(m: T) {
+    fn roundtrip<T: Message + PartialEq + core::fmt::Debug>(m: T) {
         let mut out = [0u8; FRAME_MAX];
         let n = encode(&m, &mut out).unwrap();
         assert_eq!(out[n - 1], 0);
@@ -509,9 +574,74 @@ mod tests {
             event: PlanEvent::Override(u16::MAX),
         });
         roundtrip(DeviceMsg::Error {
-            code: ErrorCode::Rejected,
+            code: ErrorCode::Misdirected,
             expected_seq: 3,
         });
+        roundtrip(HostMsg::Abort { next_seq: u32::MAX });
+        roundtrip(DeviceMsg::Aborted {
+            commands: u32::MAX,
+            points: u32::MAX,
+            pos_mm: [i64::MIN; 3],
+        });
+        roundtrip(DeviceMsg::Planned {
+            tick: 0,
+            event: PlanEvent::Abort,
+        });
+    }
+
+    /// A frame with a valid CRC around `payload` (tag included).
+    fn raw_frame(payload: &[u8]) -> Vec<u8> {
+        let mut raw = payload.to_vec();
+        raw.extend(CRC32.checksum(payload).to_le_bytes());
+        let mut enc = vec![0u8; raw.len() + 2];
+        let m = cobs::encode(&raw, &mut enc);
+        enc.truncate(m);
+        enc.push(0);
+        enc
+    }
+
+    #[test]
+    fn a_frame_must_be_consumed_exactly() {
+        let mut r = FrameReader::new();
+        // `Hold` (variant 4) and one byte more, CRC valid.
+        assert_eq!(
+            feed(&mut r, &raw_frame(&[HostMsg::TAG, 4])),
+            vec![Ok(HostMsg::Hold)]
+        );
+        assert_eq!(
+            feed(&mut r, &raw_frame(&[HostMsg::TAG, 4, 0])),
+            vec![Err(ErrorCode::Malformed)]
+        );
+    }
+
+    #[test]
+    fn a_message_going_the_other_way_or_of_another_version_is_refused() {
+        let mut out = [0u8; FRAME_MAX];
+        let n = encode(
+            &DeviceMsg::Error {
+                code: ErrorCode::Crc,
+                expected_seq: 0,
+            },
+            &mut out,
+        )
+        .unwrap();
+        let mut r = FrameReader::new();
+        let got: Vec<Result<HostMsg, ErrorCode>> =
+            out[..n].iter().filter_map(|b| r.push(*b)).collect();
+        assert_eq!(got, vec![Err(ErrorCode::Misdirected)]);
+        // A host message from version 1 (no tag byte: its first byte is
+        // the variant).
+        assert_eq!(
+            feed(&mut r, &raw_frame(&[4, 4])),
+            vec![Err(ErrorCode::Misdirected)]
+        );
+        assert_eq!(
+            feed(
+                &mut r,
+                &raw_frame(&[TAG_BASE | ((PROTOCOL_VERSION + 1) << 1), 4])
+            ),
+            vec![Err(ErrorCode::Misdirected)]
+        );
     }
 
     fn frame(m: &HostMsg) -> Vec<u8> {
@@ -547,21 +677,16 @@ mod tests {
         // Too short.
         assert_eq!(feed(&mut r, &[2, 1, 0]), vec![Err(ErrorCode::TooShort)]);
         // Unknown message: valid CRC, variant 200.
-        let mut raw = vec![200u8, 1];
-        raw.extend(CRC32.checksum(&raw).to_le_bytes());
-        let mut enc = vec![0u8; 16];
-        let m = cobs::encode(&raw, &mut enc);
-        enc.truncate(m);
-        enc.push(0);
-        assert_eq!(feed(&mut r, &enc), vec![Err(ErrorCode::UnknownMessage)]);
+        let host = HostMsg::TAG;
+        assert_eq!(
+            feed(&mut r, &raw_frame(&[host, 200, 1])),
+            vec![Err(ErrorCode::UnknownMessage)]
+        );
         // Malformed: a Point with its fields missing.
-        let mut raw = vec![2u8];
-        raw.extend(CRC32.checksum(&raw).to_le_bytes());
-        let mut enc = vec![0u8; 16];
-        let m = cobs::encode(&raw, &mut enc);
-        enc.truncate(m);
-        enc.push(0);
-        assert_eq!(feed(&mut r, &enc), vec![Err(ErrorCode::Malformed)]);
+        assert_eq!(
+            feed(&mut r, &raw_frame(&[host, 2])),
+            vec![Err(ErrorCode::Malformed)]
+        );
         // Garbage longer than a frame.
         assert_eq!(
             feed(&mut r, &[0x55; FRAME_MAX * 3]),

@@ -120,6 +120,8 @@ pub struct Records {
     pub plan_log: Vec<PlanLog>,
     /// Every status received.
     pub statuses: Vec<Status>,
+    /// Abort reports (`DeviceMsg::Aborted`).
+    pub aborted: Vec<DeviceMsg>,
 }
 
 impl Records {
@@ -144,6 +146,7 @@ impl Records {
             }
             DeviceMsg::Status(s) => self.statuses.push(s),
             DeviceMsg::Error { code, expected_seq } => self.errors.push((code, expected_seq)),
+            DeviceMsg::Aborted { .. } => self.aborted.push(*m),
             DeviceMsg::Ack { .. } | DeviceMsg::Hello { .. } => {}
         }
     }
@@ -271,6 +274,17 @@ impl Firmware {
         }
     }
 
+    /// Ask for the status every 500 ms until one comes within `timeout`
+    /// (after line noise the firmware may take a while to get to it).
+    pub fn status_within(&mut self, timeout: Duration) -> Status {
+        let rec = &mut self.rec;
+        let tries = (timeout.as_millis() / 500).max(1) as u32;
+        match self.conn.status(tries, |m| rec.record(m)) {
+            Ok(s) => s,
+            Err(e) => self.fail(e),
+        }
+    }
+
     /// Queue a path start with these settings; its sequence number.
     pub fn start_path(&mut self, config: &SchedulerConfig) -> u32 {
         let (f_max, f_min) = (config.f_max.0.to_bits(), config.f_min.0.to_bits());
@@ -284,6 +298,13 @@ impl Firmware {
         pts.iter()
             .map(|p| c.point(p.pos.to_bits(), p.feed_cap.map(|f| f.0.to_bits())))
             .collect()
+    }
+
+    /// Abort now (`HostMsg::Abort`): what was queued and not sent is
+    /// dropped, the next commands start a new path.
+    pub fn abort(&mut self) {
+        let msg = self.conn.client_mut().abort();
+        self.send(&msg);
     }
 
     /// Queue the end of the path.

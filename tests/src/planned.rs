@@ -125,6 +125,9 @@ pub fn replay(
                     PlanEvent::Override(pct) => {
                         p.apply(c(None, Some(pct)));
                     }
+                    PlanEvent::Abort => {
+                        p.abort();
+                    }
                 }
             }
         }

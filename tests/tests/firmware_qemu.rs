@@ -584,10 +584,13 @@ fn damaged(msg: &HostMsg, f: impl FnOnce(&mut Vec<u8>)) -> Vec<u8> {
     v
 }
 
-/// A frame with a valid CRC around an arbitrary payload.
-fn raw_frame(payload: &[u8]) -> Vec<u8> {
-    let crc = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC).checksum(payload);
-    let mut body = payload.to_vec();
+/// A frame with a valid CRC around an arbitrary message (the host's tag
+/// byte first).
+fn raw_frame(message: &[u8]) -> Vec<u8> {
+    let mut payload = vec![<HostMsg as link::Message>::TAG];
+    payload.extend_from_slice(message);
+    let crc = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC).checksum(&payload);
+    let mut body = payload.clone();
     body.extend(crc.to_le_bytes());
     let mut out = vec![0u8; body.len() + 2 + body.len() / 254];
     let n = cobs::encode(&body, &mut out);
@@ -649,6 +652,24 @@ fn corrupted_frames_are_refused_and_no_acknowledged_point_is_lost() {
                 (raw_frame(&[42, 1, 2, 3]), ErrorCode::UnknownMessage),
                 // A known message with its fields missing.
                 (raw_frame(&[2]), ErrorCode::Malformed),
+                // A hold with a byte after it: not taken.
+                (raw_frame(&[4, 0]), ErrorCode::Malformed),
+                // A controller's message sent to the controller.
+                (
+                    {
+                        let mut f = [0u8; link::FRAME_MAX];
+                        let n = link::encode_device(
+                            &link::DeviceMsg::Error {
+                                code: ErrorCode::Crc,
+                                expected_seq: 0,
+                            },
+                            &mut f,
+                        )
+                        .unwrap();
+                        f[..n].to_vec()
+                    },
+                    ErrorCode::Misdirected,
+                ),
                 // Out of range: a coordinate of 1 km, a 500 % override.
                 (
                     damaged(
@@ -710,6 +731,16 @@ fn corrupted_frames_are_refused_and_no_acknowledged_point_is_lost() {
         expect.len()
     );
     assert_eq!(last.pos_mm, end_of(pts));
+    assert!(
+        !fw.rec.plan_log.iter().any(|e| matches!(
+            e,
+            system_tests::firmware::PlanLog::Event {
+                event: link::PlanEvent::Hold,
+                ..
+            }
+        )),
+        "the hold with a trailing byte was not taken"
+    );
     verify("corrupt", &mut fw, &paths, 0);
     println!(
         "corrupted frames: {} bad frames sent, {} refused, {} resends; all {} points scheduled bit-exact",
@@ -836,4 +867,88 @@ fn cost_benchmark_plans_the_same_bits_as_the_host() {
             assert_eq!(r.end, *pts.last().unwrap(), "{name}: end point");
         }
     }
+}
+
+/// An abort in the middle of a path (`HostMsg::Abort`): the tool stops on
+/// the path within the limits (checked on the replay), everything queued
+/// is dropped and reported (`DeviceMsg::Aborted`), and a path sent right
+/// after runs from where the tool stopped to its end.
+#[test]
+fn an_abort_mid_path_stops_flushes_and_the_next_path_runs() {
+    if !qemu_available() {
+        return;
+    }
+    let pts = line(600, 0.5);
+    let mut fw = Firmware::start("abort");
+    let mut paths = vec![Sent::stream(&mut fw, config(), &pts)];
+    fw.end_path();
+    let cruise = fw.poll_until(Duration::from_millis(10), Duration::from_secs(120), |s| {
+        feed(s) >= F_MAX as f64 * 0.999
+    });
+    let at = pos(cruise.last().unwrap())[0];
+    fw.abort();
+    let back = vec![PathPoint::at(Point3Mm::from_f64(-5.0, 0.0, 0.0).unwrap())];
+    paths.push(Sent::stream(&mut fw, config(), &back));
+    fw.end_path();
+    fw.flush(Duration::from_secs(60));
+    let goal = end_of(&back);
+    let end = fw.poll_until(Duration::from_millis(20), Duration::from_secs(120), |s| {
+        s.motion == Motion::Idle && s.pos_mm == goal
+    });
+    let Some(link::DeviceMsg::Aborted {
+        commands,
+        points,
+        pos_mm,
+    }) = fw.rec.aborted.last().copied()
+    else {
+        panic!("no abort report")
+    };
+    let stop = pos_mm[0] as f64 / 4294967296.0;
+    assert!(
+        stop > at && stop < at + 10.0,
+        "stopped at {stop} (abort at {at})"
+    );
+    assert!(
+        commands + points > 100,
+        "{commands} commands, {points} points dropped"
+    );
+    assert_eq!(end.last().unwrap().underruns, 0);
+    let (rep, _) = verify("abort", &mut fw, &paths, 0);
+    let furthest = rep.ticks.iter().map(|t| t.pos.to_bits()[0]).max().unwrap();
+    assert_eq!(furthest, pos_mm[0], "nothing beyond the stop");
+    println!(
+        "abort: at x = {at:.3} mm at 3000 mm/min, stopped at {stop:.3} mm; {commands} queued commands and {points} points dropped; the next path ran to x = -5"
+    );
+}
+
+/// Line noise at full rate (no delimiter for 100 kB, then a flood of
+/// frames too short to hold a CRC), then a status query: answered, and the
+/// replies to the noise were rate-limited.
+#[test]
+fn a_flood_of_noise_then_a_status_query_is_answered() {
+    if !qemu_available() {
+        return;
+    }
+    let mut fw = Firmware::start("flood");
+    fw.send_raw(&vec![0x55u8; 100_000]);
+    let shorts: Vec<u8> = std::iter::repeat_n([0x02u8, 0x11, 0x00], 20_000)
+        .flatten()
+        .collect();
+    fw.send_raw(&shorts);
+    fw.send_raw(&[0]);
+    let s = fw.status();
+    assert!(s.bad_frames >= 20_000, "{s:?}");
+    let replies = fw.rec.errors.len();
+    assert!(replies < 1000, "{replies} replies to 20 001 bad frames");
+    // And the link still carries a path.
+    let pts = line(100, 0.5);
+    let paths = [Sent::stream(&mut fw, config(), &pts)];
+    fw.end_path();
+    fw.flush(Duration::from_secs(60));
+    let goal = end_of(&pts);
+    fw.poll_until(Duration::from_millis(20), Duration::from_secs(120), |s| {
+        s.motion == Motion::Idle && s.pos_mm == goal
+    });
+    verify("flood", &mut fw, &paths, 0);
+    println!("flood: 100 kB without a delimiter, 10 000 empty frames, 5 000 short frames: status answered, {replies} error replies (rate-limited)");
 }
