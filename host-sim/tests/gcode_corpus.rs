@@ -12,6 +12,10 @@
 //!   cargo test --release -p host-sim --test gcode_corpus -- --nocapture
 //! ```
 //!
+//! `HOST_SIM_GCODE_CONFIG=FILE` passes a TOML configuration (e.g. the tool
+//! table and subroutine directories of the machine the programs were
+//! written for) to every run.
+//!
 //! Refusals whose message says `needs live machine state` (probing, inputs
 //! read while running, user M-codes and remaps) are counted apart: they are
 //! outside what a reader without a machine can do. The test fails only on a
@@ -64,9 +68,12 @@ fn run(program: &Path) -> Outcome {
     let Ok(err_file) = std::fs::File::create(&err_path) else {
         return Outcome::Crashed("cannot create a temporary file".into());
     };
-    let child = Command::new(env!("CARGO_BIN_EXE_host-sim"))
-        .arg("toolpath")
-        .arg(program)
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_host-sim"));
+    cmd.arg("toolpath").arg(program);
+    if let Ok(c) = std::env::var("HOST_SIM_GCODE_CONFIG") {
+        cmd.arg("--config").arg(c);
+    }
+    let child = cmd
         .stdin(Stdio::null())
         .stdout(Stdio::null())
         .stderr(err_file)

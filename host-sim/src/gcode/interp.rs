@@ -90,6 +90,8 @@ pub struct Blk {
     pub m: Vec<u32>,
     /// Other words by letter (`A` = 0).
     pub w: [Option<f64>; 26],
+    /// Polar radius `@` and angle `^` (degrees).
+    pub polar: [Option<f64>; 2],
 }
 
 impl Blk {
@@ -104,7 +106,7 @@ impl Blk {
     }
 
     fn has_axis(&self) -> bool {
-        AXES.iter().any(|&a| self.get(a).is_some())
+        AXES.iter().any(|&a| self.get(a).is_some()) || self.polar.iter().any(Option::is_some)
     }
 }
 
@@ -589,7 +591,7 @@ impl<'s> Interp<'s> {
             }
             Keyword::EndSub | Keyword::Return => {
                 let v = self.eval_args(args)?;
-                self.ret(label, v.first().copied())?;
+                self.ret(label, kw == Keyword::EndSub, v.first().copied())?;
             }
             Keyword::Call => {
                 let v = self.eval_args(args)?;
@@ -783,14 +785,14 @@ impl<'s> Interp<'s> {
         Ok(())
     }
 
-    fn ret(&mut self, label: &Label, value: Option<f64>) -> Result<()> {
+    fn ret(&mut self, label: &Label, endsub: bool, value: Option<f64>) -> Result<()> {
         let Some(f) = self.frames.last() else {
             bail!("{label} return outside a call");
         };
         let Some(c) = &f.call else {
             bail!("{label} return or endsub reached outside a call");
         };
-        if &c.label != label {
+        if endsub && &c.label != label {
             bail!("{label} return inside {} sub", c.label);
         }
         let f = self.frames.pop().unwrap_or_else(|| unreachable!());
@@ -851,6 +853,7 @@ impl<'s> Interp<'s> {
             g: Vec::new(),
             m: Vec::new(),
             w: [None; 26],
+            polar: [None; 2],
         };
         for w in words {
             let v = w
@@ -877,6 +880,18 @@ impl<'s> Interp<'s> {
                         bail!("line {line}: M{v} is not an M-code");
                     }
                     b.m.push(v as u32);
+                }
+                '$' => {
+                    if v.fract() != 0.0 || v < -1.0 {
+                        bail!("line {line}: spindle ${v} is not a spindle number");
+                    }
+                }
+                '@' | '^' => {
+                    let k = usize::from(w.letter == '^');
+                    if b.polar[k].is_some() {
+                        bail!("line {line}: word {} appears twice", w.letter);
+                    }
+                    b.polar[k] = Some(v);
                 }
                 c => {
                     let i = (c as u8 - b'A') as usize;
@@ -1396,6 +1411,31 @@ impl<'s> Interp<'s> {
     /// The machine target of a block's axis words.
     pub(super) fn target(&self, b: &Blk, g53: bool) -> Result<[f64; 9]> {
         let mut t = self.pos;
+        if b.polar.iter().any(Option::is_some) {
+            // LinuxCNC's polar words (`find_ends`): radius and angle about
+            // the program origin in the XY plane; G91 adds to the current
+            // radius and angle.
+            let line = b.line;
+            if self.plane != Plane::Xy || g53 {
+                bail!("line {line}: polar coordinates (@ ^) need the XY plane and no G53");
+            }
+            if b.get('X').is_some() || b.get('Y').is_some() {
+                bail!("line {line}: polar coordinates (@ ^) with X or Y");
+            }
+            let (x, y) = (self.program(0), self.program(1));
+            let (r0, a0) = (x.hypot(y), y.atan2(x).to_degrees());
+            let (r, a) = if self.absolute {
+                (b.polar[0].unwrap_or(r0), b.polar[1].unwrap_or(a0))
+            } else {
+                (
+                    r0 + b.polar[0].unwrap_or(0.0),
+                    a0 + b.polar[1].unwrap_or(0.0),
+                )
+            };
+            let (s, c) = a.to_radians().sin_cos();
+            t[0] = r * c * self.units + self.offset(0);
+            t[1] = r * s * self.units + self.offset(1);
+        }
         for (i, a) in AXES.iter().enumerate() {
             if let Some(v) = b.get(*a) {
                 let v = if i == 0 && self.diameter_mode {
@@ -1628,6 +1668,13 @@ impl<'s> Interp<'s> {
         }
         if b.get(AXES[a]).is_none() && b.get(AXES[bb]).is_none() {
             if b.g.is_empty() && b.w.iter().all(Option::is_none) {
+                return Ok(());
+            }
+            if b.has_g(5, 2) {
+                // `G5.2 P L` alone: the start point's weight and the order.
+                if let Some(c) = self.nurbs.as_mut() {
+                    c.set_start(b.get('P'), b.get('L'), line)?;
+                }
                 return Ok(());
             }
             bail!(

@@ -71,14 +71,20 @@ impl Collector {
         *self.control.last().unwrap_or(&[0.0; 3])
     }
 
-    /// Add a control point (mm) with weight `p` and optional order `l`.
-    pub fn add(
-        &mut self,
-        point: [f64; 3],
-        p: Option<f64>,
-        l: Option<f64>,
-        line: u32,
-    ) -> Result<()> {
+    /// A `G5.2` line without a point: the start point's weight `p` and the
+    /// order `l`.
+    pub fn set_start(&mut self, p: Option<f64>, l: Option<f64>, line: u32) -> Result<()> {
+        self.order_from(l, line)?;
+        if let Some(w) = p {
+            if !(w.is_finite() && w > 0.0) {
+                bail!("line {line}: NURBS weight P{w} must be positive");
+            }
+            self.weights[0] = w;
+        }
+        Ok(())
+    }
+
+    fn order_from(&mut self, l: Option<f64>, line: u32) -> Result<()> {
         if let Some(l) = l {
             if l.fract() != 0.0 || !(1.0..=10.0).contains(&l) {
                 bail!("line {line}: NURBS order L{l} must be a whole number in 1..=10");
@@ -87,6 +93,18 @@ impl Collector {
                 self.order = l as usize;
             }
         }
+        Ok(())
+    }
+
+    /// Add a control point (mm) with weight `p` and optional order `l`.
+    pub fn add(
+        &mut self,
+        point: [f64; 3],
+        p: Option<f64>,
+        l: Option<f64>,
+        line: u32,
+    ) -> Result<()> {
+        self.order_from(l, line)?;
         let w = p.unwrap_or(1.0);
         if !(w.is_finite() && w > 0.0) {
             bail!("line {line}: NURBS weight P{w} must be positive");

@@ -118,7 +118,9 @@ impl Keyword {
     }
 }
 
-/// One word: a letter and its value (unevaluated).
+/// One word: a letter and its value (unevaluated). Besides the letters,
+/// LinuxCNC's `$` (spindle number), `@` (polar radius) and `^` (polar angle,
+/// degrees) are words.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Word {
     /// Upper-case letter.
@@ -240,7 +242,7 @@ pub fn line(src: &str, number: u32) -> Result<Line> {
             }
             let v = c.real_value()?;
             assigns.push((p, v));
-        } else if b.is_ascii_lowercase() {
+        } else if b.is_ascii_lowercase() || matches!(b, b'$' | b'@' | b'^') {
             c.i += 1;
             let letter = (b as char).to_ascii_uppercase();
             if letter == 'N' {

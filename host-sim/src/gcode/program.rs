@@ -110,11 +110,9 @@ fn structure(lines: &[Line]) -> Result<Structure> {
                 jumps.insert(s, Jump::SubEnd(i));
             }
             Keyword::Return => {
-                if !open
-                    .iter()
-                    .any(|(lb, k, _)| *k == Keyword::Sub && lb == label)
-                {
-                    bail!("line {n}: {label} return outside its {label} sub");
+                // LinuxCNC accepts any label on a return inside a sub.
+                if !open.iter().any(|(_, k, _)| *k == Keyword::Sub) {
+                    bail!("line {n}: {label} return outside a sub");
                 }
             }
             Keyword::If => {
