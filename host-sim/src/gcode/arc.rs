@@ -138,7 +138,7 @@ pub fn points(
         (4.0 * (tolerance_mm / (2.0 * r)).sqrt().asin()).min(std::f64::consts::PI / 2.0)
     };
     let steps_f = (sweep / max_step).ceil().max(1.0);
-    if !(steps_f <= max_points as f64) {
+    if steps_f.is_nan() || steps_f > max_points as f64 {
         bail!(
             "arc of radius {r:.6} mm sweeping {:.1} turns needs {} points within the chord tolerance {tolerance_mm} mm: more than gcode.limits.max_points allows here ({max_points})",
             sweep / TAU,

@@ -454,8 +454,7 @@ impl<'s> Interp<'s> {
             .saturating_add(source_lines);
         let mut percent_seen = false;
         let mut any_content = false;
-        loop {
-            let Some(fr) = self.frames.last() else { break };
+        while let Some(fr) = self.frames.last() {
             let (fi, pc) = (fr.file, fr.pc);
             let Some(l) = self.files[fi].lines.get(pc) else {
                 if self.frames.len() > 1 {
@@ -1303,6 +1302,9 @@ impl<'s> Interp<'s> {
             }
             (92, 0) => {
                 if !b.has_axis() {
+                    if b.get('E').is_some() && self.s.extra_axes == ExtraAxes::Ignore {
+                        return Ok(()); // `G92 E0`: an extruder reset, dropped
+                    }
                     bail!("line {line}: G92 without axis words");
                 }
                 for (i, a) in AXES.iter().enumerate() {

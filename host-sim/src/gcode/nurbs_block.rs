@@ -238,8 +238,9 @@ pub fn bezier(c: &[[f64; 3]], tolerance_mm: f64, room: usize) -> Result<Vec<[f64
         let mut q = c.to_vec();
         while q.len() > 1 {
             for i in 0..q.len() - 1 {
-                for k in 0..3 {
-                    q[i][k] += t * (q[i + 1][k] - q[i][k]);
+                let next = q[i + 1];
+                for (a, b) in q[i].iter_mut().zip(next) {
+                    *a += t * (b - *a);
                 }
             }
             q.pop();

@@ -40,7 +40,7 @@ impl Sink {
 
     /// Fail unless `n` more points fit.
     pub fn check_room(&self, n: f64, line: u32, what: &str) -> Result<()> {
-        if !(n <= self.room() as f64) {
+        if n.is_nan() || n > self.room() as f64 {
             bail!(
                 "line {line}: {what} needs {} points; with the {} already made that is more than gcode.limits.max_points = {}",
                 if n.is_finite() { format!("{n:.0}") } else { "unboundedly many".into() },
