@@ -281,7 +281,9 @@ impl Comp {
         };
         let corner = prev.prog_to;
         if gap <= 1e-9 {
-            // Tangent: nothing to add.
+            // Tangent: nothing to add between them.
+            self.pending = Some(prev);
+            self.flush(out, e.line)?;
         } else if outside || (turn.abs() < 1e-12 && t1[0] * t2[0] + t1[1] * t2[1] < 0.0) {
             self.pending = Some(prev);
             self.flush(out, e.line)?;
@@ -479,6 +481,29 @@ mod tests {
         assert!(on
             .iter()
             .any(|p| (p[0] + s2).abs() < 0.05 && (p[1] - 20.0 - s2).abs() < 0.05));
+    }
+
+    #[test]
+    fn tangent_joins_keep_both_moves() {
+        // A line into a tangent arc (G41, tool radius 1): the line's offset
+        // ends where the arc's offset starts, (−1, 10); the arc (centre
+        // (5, 10), radius 5, CW: tool left = outside) becomes radius 6.
+        let src = "T1 M6\nG0 X0 Y-5\nG41 D1 G1 X0 Y0 F100\nY10\nG2 X10 Y10 I5 J0\nG40 G1 X10 Y20\n";
+        let t = parse("t", src, &settings(2.0)).unwrap();
+        assert!(t.points.iter().any(|p| p[0] == -1.0 && p[1] == 10.0));
+        let arc: Vec<_> = t
+            .points
+            .iter()
+            .zip(&t.lines)
+            .filter(|(_, &l)| l == 5)
+            .collect();
+        assert!(arc.len() > 10);
+        for (p, _) in arc {
+            assert!(
+                ((p[0] - 5.0).hypot(p[1] - 10.0) - 6.0).abs() < 1e-6,
+                "{p:?}"
+            );
+        }
     }
 
     #[test]
