@@ -1,6 +1,6 @@
 //! Online contour error: the distance from the measured tool position to the
 //! commanded path, computed every interpolation tick without allocation, as
-//! Cho, Lee & Jeon's feed controller needs it (seed 004, section 2.2).
+//! Cho, Lee & Jeon's feed controller needs it (section 2.2).
 //!
 //! # The paper's model and ours
 //!
