@@ -56,8 +56,8 @@
 //!   scheduler gives them the curvature of their only neighbour
 //!   (one-sided estimate), see [`crate::scheduler`].
 
-use crate::fixmath::sar_i64_low;
-use crate::softfloat::Sf;
+use crate::numerics::softfloat::Sf;
+use crate::numerics::wide::sar_i64_low;
 use crate::units::{CurvaturePerMm, Point3Mm};
 
 /// Why a curvature could not be computed.

@@ -22,8 +22,9 @@
 //! | Dat & Phuc 2024 | none: host-sim only (`host-sim/src/experiments/dat_phuc2024`) | |
 //!
 //! Underneath: the generic fuzzy engine ([`fuzzy`]), the velocity planner
-//! ([`planner`]), typed units ([`units`]) and, with feature `std`, `f64`
-//! references (`reference`).
+//! ([`planner`]), the integer arithmetic every module shares and its policy
+//! ([`numerics`]: integer-only on the target, a cost table), typed units
+//! ([`units`]) and, with feature `std`, `f64` references (`reference`).
 //!
 //! `no_std`, no heap (fixed rings, `heapless`, const generics), no floating point on the
 //! target, no panics: errors are values. The firmware and the host simulator
@@ -54,16 +55,18 @@
 pub mod average;
 pub mod cho;
 pub mod curvature;
-mod fixmath;
 pub mod fuzzy;
 pub mod lin2021;
 pub mod lookahead;
 pub mod nagata;
 pub mod njiri;
+pub mod numerics;
 pub mod planner;
 #[cfg(feature = "std")]
 pub mod reference;
 mod ring;
 pub mod scheduler;
-mod softfloat;
 pub mod units;
+
+// The planner's files still name the soft float by its former path.
+pub(crate) use numerics::softfloat;

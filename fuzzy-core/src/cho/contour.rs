@@ -66,6 +66,7 @@
 use fixed::types::I32F32;
 use heapless::Deque;
 
+use crate::numerics::sqrt::isqrt_u128;
 use crate::units::Point3Mm;
 
 /// Why the contour error cannot be computed or a vertex cannot be taken.
@@ -203,7 +204,7 @@ impl<const N: usize> ContourTracker<N> {
         };
         if n == 1 {
             let d2 = dist2(v0, actual);
-            let d = I32F32::from_bits(d2.isqrt() as i64);
+            let d = I32F32::from_bits(isqrt_u128(d2) as i64);
             return Ok(ContourEstimate {
                 error: d,
                 distance: d,
@@ -230,7 +231,7 @@ impl<const N: usize> ContourTracker<N> {
         let (d2, seg, side) = best;
         self.anchor = self.first.saturating_add(seg as u32);
         self.prune();
-        let d = I32F32::from_bits(d2.isqrt() as i64);
+        let d = I32F32::from_bits(isqrt_u128(d2) as i64);
         Ok(ContourEstimate {
             error: if side < 0 { -d } else { d },
             distance: d,

@@ -32,7 +32,7 @@
 //! integral; for Lin's controller the two differ by up to 0.12 % of the feed
 //! range (see `tests/controller_accuracy.rs`).
 
-use crate::fixmath::div_narrow;
+use crate::numerics::wide::div_narrow;
 
 /// 1.0 in Q29.
 const ONE: i32 = 1 << 29;

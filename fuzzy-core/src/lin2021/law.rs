@@ -5,7 +5,7 @@
 
 use fixed::types::I32F32;
 
-use crate::fixmath::shr_u64_low;
+use crate::numerics::wide::shr_u64_low;
 use crate::units::{CurvaturePerMm, Fx};
 
 /// How the curvature variation Dκ is normalised to the controller's `[0, 1]`
@@ -84,9 +84,10 @@ impl VariationScale {
 }
 
 /// [`VariationScale::normalise`] with its division by `clip − floor`
-/// replaced by a multiplication with a reciprocal computed once (a 64-by-32
-/// bit division costs ~60 instructions on the Cortex-M4, the product ~20).
-/// Exact: the reciprocal's estimate is at most one low and is corrected, so
+/// replaced by a multiplication with a reciprocal computed once (on the
+/// target a 64-by-32-bit division is a long division:
+/// [`wide::div_narrow`](crate::numerics::wide::div_narrow) in the cost table
+/// of [`crate::numerics`]). Exact: the reciprocal's estimate is at most one low and is corrected, so
 /// the result is the same rounded quotient, bit for bit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Normaliser {
@@ -138,7 +139,7 @@ impl Normaliser {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fixmath::div_narrow;
+    use crate::numerics::wide::div_narrow;
     use proptest::prelude::*;
 
     /// The normalisation by long division (the implementation before

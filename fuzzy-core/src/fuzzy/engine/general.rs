@@ -7,7 +7,7 @@ use super::super::membership::ONE;
 use super::super::rule::{Antecedent, Connective};
 use super::super::system::{AndMethod, Implication, Inference, OrMethod, SugenoOutput};
 use super::{saturate_i32, Controller, Evaluation, Scratch};
-use crate::fixmath::divlu;
+use crate::numerics::wide::divlu;
 use crate::units::Fx;
 
 impl<'a, const NI: usize, const NT: usize, const NO: usize, const S: usize>
