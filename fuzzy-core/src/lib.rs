@@ -68,5 +68,6 @@ mod ring;
 pub mod scheduler;
 pub mod units;
 
-// The planner's files still name the soft float by its former path.
+// The planner (`planner/q.rs`, `planner/motion.rs`) names the soft float
+// `crate::softfloat` until its helpers join `numerics`.
 pub(crate) use numerics::softfloat;

@@ -5,11 +5,11 @@
 //! # The paper's model and ours
 //!
 //! Cho et al. take the contour-error model of Joo, Lee, Lee & Jeon (their
-//! ref. \[5\], in Korean, not among the seeds): "a variable size window is used
+//! ref. \[5\], in Korean, not available to us): "a variable size window is used
 //! to find two closest points between previous reference points and the
 //! current tool position. With these two points, we can determine the contour
 //! error by considering the geometrical relationship." The window's sizing
-//! rule is not in the seed. We implement the idea as a **variable window of
+//! rule is not in the paper. We implement the idea as a **variable window of
 //! path segments**:
 //!
 //! - the window holds the path's vertices from a few segments behind the
@@ -59,9 +59,12 @@
 //! coordinate limit, where the foot may slide 1.5 µm along the segment,
 //! changing the distance only to second order), i.e. within a few 2⁻³² mm.
 //! Per searched segment: about a dozen 128-bit multiplications and at most
-//! one 128-bit division; one 128-bit square root per tick. The window's capacity `N` is a const
-//! generic; on a Cortex-M4 the search costs a few hundred cycles per
-//! segment, so a window of tens of segments fits a 1 ms tick.
+//! one 128-bit division; one 128-bit square root per tick
+//! ([`isqrt_u128`]). The window's
+//! capacity `N` is a const generic; the search is linear in the segments
+//! the window holds. It runs on the host (host-sim's `cho` experiment);
+//! on the target the 128-bit root alone is expensive (the cost table in
+//! [`crate::numerics`]).
 
 use fixed::types::I32F32;
 use heapless::Deque;

@@ -49,7 +49,7 @@
 //!
 //! # Table 3.1: what survives and what we chose
 //!
-//! The seed's Table 3.1 lost its column headers and 17 of its 25 cells.
+//! The paper's Table 3.1 (as we have it) lost its column headers and 17 of its 25 cells.
 //! Eight cells survive, which matches section IV's "eight fuzzy if-then
 //! control rules" (section 3.3 says 6). The rows are `Δε` = PB, PS, ZE, NS,
 //! NB from top to bottom; we read the columns `ε` in the same order, PB..NB.

@@ -179,9 +179,9 @@ pub static CONTROLLER: Lin2021Controller = match Controller::new(&SYSTEM) {
 
 /// The controller as a firmware holds it: [`SYSTEM`] always takes the
 /// engine's fast path (a complete rule grid with min AND, inputs
-/// partitions, the output a chain: exact centroid), so the 2.8 KiB sampled
-/// output table, the 404-byte scratch and the general inference path are
-/// left out ([`ExactController`]). Same outputs as [`CONTROLLER`], bit for
+/// partitions, the output a chain: exact centroid), so the sampled output
+/// table (7 × 101 degrees), the centroid scratch (101 words) and the general
+/// inference path are left out ([`ExactController`]). Same outputs as [`CONTROLLER`], bit for
 /// bit (tested); not for [`Controller::evaluate_sampled`] (Octave checks).
 pub type Lin2021Compact = ExactController<'static, 2, 6, 7>;
 

@@ -18,10 +18,10 @@
 //!   degrees sum to 1, so some rule always fires). Geometric because the
 //!   contour error of a machine following a curve grows with `F²·κ`, so equal
 //!   steps in feed need equal *ratios* of curvature. The scale covers the
-//!   sampled test shapes of the paper (2000 points, u step 0.0005): ∞ shape
-//!   κ ≤ 0.23 (median 0.011): ZO..M; trident κ ≤ 3.5 (median 0.10, 90 %
-//!   below 0.93): VS..VB; butterfly median 0.05, 95 % below 0.69, peaks of
-//!   40: every set. The top set saturates at 3 /mm, the paper's clip.
+//!   curvatures of the paper's sampled test shapes (2000 points, u step
+//!   0.0005): the ∞ shape stays within ZO..M, the trident spans VS..VB, the
+//!   butterfly reaches every set. The top set saturates at 3 /mm, the
+//!   paper's clip.
 //! - curvature variation Dκ, normalised `min(Dκ, 3)/3` (see
 //!   [`VariationScale`]), five uniform triangles at `0, 0.25, 0.5, 0.75, 1`
 //!   (end sets mirrored beyond the universe so they are whole triangles).
@@ -32,8 +32,8 @@
 //!   universe, so TF alone gives 1.0 (a straight line runs at `F_max`) and VLF
 //!   alone 0.10. Equal widths matter: the centroid weights each clipped set by
 //!   its area, so narrow slow sets beside wide fast ones would let a weakly
-//!   firing fast rule outvote a strongly firing slow one (we tried geometric
-//!   peaks: the output then fell from 0.39 to 0.10 within 1.7 % of the Dκ
+//!   firing fast rule outvote a strongly firing slow one (with geometric
+//!   output peaks the feed drops from MF to VLF across a sliver of the Dκ
 //!   range). The geometric curvature scale above already makes the feed fall
 //!   roughly as `κ^(-1/2)` along the rules' diagonal.
 //!

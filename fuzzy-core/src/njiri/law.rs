@@ -155,8 +155,9 @@ pub struct StepTrace {
 
 /// The closed-loop override: feed it the peak forces of each revolution,
 /// apply the returned override to the programmed feed. `no_std`, no
-/// allocation, no panics; about 0.5 KiB on [`CONTROLLER`](super::CONTROLLER) (mostly the
-/// centroid scratch), under 100 bytes on [`COMPACT`](super::COMPACT).
+/// allocation, no panics. It holds its controller's scratch: the centroid's
+/// samples on [`CONTROLLER`](super::CONTROLLER), the consequents' strengths on
+/// [`COMPACT`](super::COMPACT).
 #[derive(Clone, Debug)]
 pub struct ForceOverride<'c, C: FuzzyInference<4> = NjiriController> {
     controller: &'c C,

@@ -63,11 +63,12 @@
 //! reading of such a rule base (the terms are changes: NS … PL about
 //! Ze = "no change"): [`OverrideLaw::Incremental`],
 //! `override(k) = override(k−1) + g·(FRPO(k) − 100 %)`, clamped to 0-150 %,
-//! with `g` = 0.05 by default (at most −4.4 % / +2.2 % per revolution):
-//! in host-sim's loop (one revolution of delay, 64 ms acc/dec) g = 0.1
-//! leaves a ±1.7 % limit cycle around the equilibrium and g = 0.05 settles
-//! within 4 s. Both laws are here; the default is the incremental one. At the first sample
-//! there is no previous error: Δ² = 0.
+//! with `g` = 0.05 by default (at most −4.4 % / +2.2 % per revolution, from
+//! NS's and PL's centroids): in host-sim's loop (one revolution of delay,
+//! 64 ms acc/dec) a gain of 0.1 leaves a limit cycle around the equilibrium
+//! and 0.05 settles (`host-sim njiri --gain 0.1` against the default).
+//! Both laws are here; the default is the incremental one. At the first
+//! sample there is no previous error: Δ² = 0.
 //!
 //! The controller is meant to run once per spindle revolution on the peak
 //! forces of that revolution ([`PeakWindow`] collects them from raw

@@ -31,7 +31,7 @@ impl<'a, const NI: usize, const NT: usize, const NO: usize, const S: usize>
         while j + 1 < n && upper.get(j).is_some_and(|&u| u < x) {
             j += 1;
         }
-        // `match`, not `map_or`: the latter stayed an out-of-line call.
+        // A `match`, so that the degree is computed here, not in a closure.
         let first = match mfs.get(j) {
             Some(mf) => mf.degree(x),
             None => 0,
@@ -52,8 +52,9 @@ impl<'a, const NI: usize, const NT: usize, const NO: usize, const S: usize>
     }
 
     /// [`Self::infer_partition_grid`] with the consequents' strengths in
-    /// `strength`, which must be all zero and is left all zero (a fresh
-    /// local array cost a `memset` call per inference on the target).
+    /// `strength`, which must be all zero and is left all zero, so that a
+    /// caller keeps one array across inferences instead of clearing a new
+    /// one each time ([`super::ExactScratch`]).
     pub(super) fn infer_partition_grid_in(
         &self,
         strength: &mut [i32; NO],
@@ -141,9 +142,8 @@ impl<'a, const NI: usize, const NT: usize, const NO: usize, const S: usize>
             return default;
         }
         let centroid = chain.centroid_q30(f.strength, f.lowest, f.highest);
-        // Every fired consequent is in lowest..=highest. (The zero goes
-        // through `black_box` so that the loop stays a few stores instead
-        // of becoming a `memset` call.)
+        // Clear what fired: every fired consequent is in lowest..=highest.
+        // (`black_box` keeps these few stores from becoming a `memset` call.)
         let zero = core::hint::black_box(0);
         for s in f.strength.iter_mut().take(f.highest + 1).skip(f.lowest) {
             *s = zero;
@@ -174,8 +174,8 @@ struct Fired<'s, const NO: usize> {
 }
 
 impl<const NO: usize> Fired<'_, NO> {
-    /// Rule `code` of `grid` fired with strength `w` (inlined: a closure
-    /// here stayed an out-of-line call per rule).
+    /// Rule `code` of `grid` fired with strength `w` (inlined: it runs for
+    /// each candidate rule of every inference).
     #[inline(always)]
     fn fire(&mut self, grid: &[u8], w: i32, code: usize) {
         if w > 0 {
