@@ -5,7 +5,8 @@
 //! ```text
 //! link bytes ─► link::FrameReader ─► session: DeviceLink::on_frame ─► [ring: Cmd] ─► background:
 //!   feeder (fuzzy scheduler) ─► planning (velocity planner, ticks ahead) ─► [ring: Setpoint]
-//!   ─► tick: TickExecutor ─► stepper: step/dir pins
+//!   ─► tick: TickExecutor ─► stepper/steps: tick plan ─► [ring: TickPlan]
+//!   ─► step timer: StepEngine ─► step/dir pins
 //! ```
 //!
 //! | module | what |
@@ -15,8 +16,9 @@
 //! | [`feeder`] | commands into the fuzzy scheduler (first stage) |
 //! | [`planning`] | scheduled points into the velocity planner, setpoints out, the feeding policy (second stage) |
 //! | [`controls`] | hold, resume, override and Njiri et al.'s force loop |
-//! | [`tick`] | the tick's work: next setpoint to the axes, counters |
-//! | [`stepper`] | step/direction outputs on `embedded-hal` pins |
+//! | [`tick`] | the tick's work: next setpoint to the step output, counters |
+//! | [`stepper`] | the step output the tick drives: plans to a timer-driven engine, or the engine run in software (QEMU) |
+//! | [`steps`] | step generation with real timing: per-tick plans of exact step times, the engine a step timer's interrupt runs (pulse width, low time, DIR setup, polarity, per-axis steps/mm), lag reported |
 //! | [`session`] | the device side of the link: sequence, credit, replies (sans-IO) |
 //! | [`tx`] | the transmit buffer and the background's reserve in it |
 //! | [`background`] | one pass of the firmware's idle loop |
@@ -47,5 +49,6 @@ pub mod settings;
 #[cfg(feature = "std")]
 pub mod sim;
 pub mod stepper;
+pub mod steps;
 pub mod tick;
 pub mod tx;

@@ -14,6 +14,8 @@ use fuzzy_core::planner::{Motion, MotionConfig};
 use fuzzy_core::scheduler::{Scheduler, SchedulerConfig};
 use fuzzy_core::units::FeedMmPerMin;
 
+use crate::steps::{AxisConfig, StepConfig, StepsPerMm};
+
 /// `value` parsed as a decimal `u32`, or `default` if absent or invalid.
 const fn env_u32(value: Option<&str>, default: u32) -> u32 {
     let Some(s) = value else { return default };
@@ -36,11 +38,93 @@ const fn env_u32(value: Option<&str>, default: u32) -> u32 {
 
 /// Interpolation tick rate, Hz (`FW_TICK_HZ`, default 1000; 10 to 20 000).
 pub const TICK_HZ: u32 = clamp(env_u32(option_env!("FW_TICK_HZ"), 1000), 10, 20_000);
-/// Motor steps per mm, every axis (`FW_STEPS_PER_MM`, default 100).
-pub const STEPS_PER_MM: u32 = env_u32(option_env!("FW_STEPS_PER_MM"), 100);
-/// Most step pulses per axis in one tick (more are carried to the next tick
-/// and counted as lag).
-pub const MAX_STEPS_PER_TICK: u32 = 64;
+/// Motor steps per mm, every axis unless overridden (`FW_STEPS_PER_MM`,
+/// default 100; decimals allowed, e.g. `53.333`, to 1/1000).
+pub const STEPS_PER_MM: StepsPerMm = steps_per_mm(option_env!("FW_STEPS_PER_MM"), 100_000);
+/// Steps per mm per axis (`FW_STEPS_PER_MM_X`, `_Y`, `_Z`; default
+/// [`STEPS_PER_MM`]).
+pub const AXIS_STEPS_PER_MM: [StepsPerMm; 3] = [
+    steps_per_mm(option_env!("FW_STEPS_PER_MM_X"), STEPS_PER_MM_MILLI),
+    steps_per_mm(option_env!("FW_STEPS_PER_MM_Y"), STEPS_PER_MM_MILLI),
+    steps_per_mm(option_env!("FW_STEPS_PER_MM_Z"), STEPS_PER_MM_MILLI),
+];
+const STEPS_PER_MM_MILLI: u32 = env_milli(option_env!("FW_STEPS_PER_MM"), 100_000);
+/// The step timer's clock, Hz: TIM2 on the F4 (APB1 at 42 MHz, timers at
+/// twice that). Every step time is in its counts; the tick period must be
+/// a whole number of them.
+pub const STEP_TIMER_HZ: u32 = 84_000_000;
+/// The step generator's settings: steps/mm and polarity per axis
+/// (`FW_STEP_INVERT`, `FW_DIR_INVERT`: a bit per axis, X = 1, Y = 2,
+/// Z = 4), pulse width (`FW_STEP_PULSE_NS`, default 2500), direction setup
+/// (`FW_DIR_SETUP_NS`, 5000), coalescing window (`FW_STEP_COALESCE_NS`,
+/// 1000), reversal filter (`FW_REVERSAL_FILTER_NS`, 0 = off); defaults
+/// and ranges in [`crate::steps::config`]. Checked at start-up.
+pub const STEP_CONFIG: StepConfig = {
+    let step_inv = env_u32(option_env!("FW_STEP_INVERT"), 0);
+    let dir_inv = env_u32(option_env!("FW_DIR_INVERT"), 0);
+    let mut c = StepConfig::new(STEPS_PER_MM);
+    let mut i = 0;
+    while i < 3 {
+        c.axes[i] = AxisConfig {
+            steps_per_mm: AXIS_STEPS_PER_MM[i],
+            invert_step: step_inv & (1 << i) != 0,
+            invert_dir: dir_inv & (1 << i) != 0,
+        };
+        i += 1;
+    }
+    c.pulse_ns = env_u32(option_env!("FW_STEP_PULSE_NS"), c.pulse_ns);
+    c.dir_setup_ns = env_u32(option_env!("FW_DIR_SETUP_NS"), c.dir_setup_ns);
+    c.coalesce_ns = env_u32(option_env!("FW_STEP_COALESCE_NS"), c.coalesce_ns);
+    c.reversal_filter_ns = env_u32(option_env!("FW_REVERSAL_FILTER_NS"), c.reversal_filter_ns);
+    c
+};
+
+/// `value` as thousandths of a decimal number (`"80"`, `"53.333"`), or
+/// `default` if absent or invalid (more than three decimals, above
+/// 65 535).
+const fn env_milli(value: Option<&str>, default: u32) -> u32 {
+    let Some(s) = value else { return default };
+    let b = s.as_bytes();
+    let (mut int, mut frac, mut frac_digits, mut dot) = (0u32, 0u32, 0u32, false);
+    let mut i = 0;
+    if b.is_empty() {
+        return default;
+    }
+    while i < b.len() {
+        let d = b[i];
+        if d == b'.' && !dot {
+            dot = true;
+        } else if d.is_ascii_digit() {
+            if dot {
+                if frac_digits == 3 {
+                    return default;
+                }
+                frac = frac * 10 + (d - b'0') as u32;
+                frac_digits += 1;
+            } else {
+                if int > 65_535 {
+                    return default;
+                }
+                int = int * 10 + (d - b'0') as u32;
+            }
+        } else {
+            return default;
+        }
+        i += 1;
+    }
+    while frac_digits < 3 {
+        frac *= 10;
+        frac_digits += 1;
+    }
+    if int > 65_535 {
+        return default;
+    }
+    int * 1000 + frac
+}
+
+const fn steps_per_mm(value: Option<&str>, default_milli: u32) -> StepsPerMm {
+    StepsPerMm::from_milli(env_milli(value, default_milli))
+}
 
 /// Largest feed the machine runs (programmed feed × override is capped to
 /// it; a path's F_max above it is accepted and scheduled, the motion is
@@ -158,6 +242,18 @@ const fn clamp(v: u32, lo: u32, hi: u32) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn decimal_steps_per_mm() {
+        assert_eq!(env_milli(Some("80"), 1), 80_000);
+        assert_eq!(env_milli(Some("53.333"), 1), 53_333);
+        assert_eq!(env_milli(Some("0.5"), 1), 500);
+        assert_eq!(env_milli(Some("1.2345"), 1), 1);
+        assert_eq!(env_milli(Some("70000"), 1), 1);
+        assert_eq!(env_milli(Some("8x"), 1), 1);
+        assert_eq!(env_milli(None, 7), 7);
+        assert!(STEP_CONFIG.timing(STEP_TIMER_HZ, TICK_HZ).is_ok());
+    }
 
     #[test]
     fn the_link_rates_come_within_a_percent_on_an_84_mhz_apb2() {

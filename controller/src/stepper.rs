@@ -1,124 +1,192 @@
-//! Step/direction outputs for three axes on `embedded-hal` pins: the motion
-//! code hands over position setpoints and never touches the chip.
+//! Step/direction outputs: the tick hands each setpoint to a
+//! [`StepOutput`]; the step generator ([`crate::steps`]) turns it into
+//! timed pulses. The motion code never touches the chip.
 //!
-//! Each tick the setpoint (I32F32 mm) becomes a whole step count
-//! (`floor(mm × steps/mm)`); the difference is emitted as pulses, direction
-//! first. Pulses are emitted back to back in the tick (a burst of at most
-//! [`MAX_STEPS_PER_TICK`] per axis; more are carried to the next tick and
-//! counted in [`Axes::lag_events`]). That suits QEMU and drivers with short
-//! minimum pulse widths; a board whose drivers need microsecond pulses
-//! spread over the tick should drive step pins from a timer (a new
-//! [`StepOutput`] in its board file).
+//! - [`StepQueue`]: the tick's side of a timer-driven engine (the
+//!   firmware on a board): the setpoint becomes a [`TickPlan`] queued to
+//!   the [`StepEngine`] that the step timer's interrupt runs;
+//! - [`SoftSteps`]: the same planner and engine, the engine run by the
+//!   tick itself over the tick's window in virtual time, edges written at
+//!   once (QEMU, whose timers cannot drive the engine; the cost
+//!   benchmark; host tests).
 
 use embedded_hal::digital::OutputPin;
 use fuzzy_core::units::Point3Mm;
 
-use crate::settings::MAX_STEPS_PER_TICK;
+use crate::steps::{Edges, PlanTx, Planner, StepEngine, StepReport, StepShared, TickPlan};
 
-/// Something that can take a position setpoint per tick.
+/// Something that takes a position setpoint per tick.
 pub trait StepOutput {
-    /// Move to `pos` (mm).
+    /// The tick ending at `pos` (mm).
     fn update(&mut self, pos: Point3Mm);
+    /// A tick without a new setpoint: the position held.
+    fn hold(&mut self) {}
+    /// What the step generator reports.
+    fn report(&self) -> StepReport {
+        StepReport::default()
+    }
 }
 
-/// One axis: step and direction pins and its position in steps.
-pub struct Axis<S, D> {
-    step: S,
-    dir: D,
-    steps: i64,
-    /// The direction the DIR pin is set to; `None` until the first step,
-    /// which sets it whatever the pin's level at reset.
-    forward: Option<bool>,
+/// Pins that take a batch of [`Edges`] at once.
+pub trait StepPins {
+    /// Drive the pins in `e`.
+    fn write(&mut self, e: Edges);
 }
 
-/// Three axes with the same steps/mm.
-pub struct Axes<S, D> {
-    axes: [Axis<S, D>; 3],
-    steps_per_mm: i64,
-    lag_events: u32,
+/// Step and direction pins of three axes as `embedded-hal` pins, written
+/// one by one (falling and direction edges before rising ones).
+pub struct PinBank<S, D> {
+    pins: [(S, D); 3],
 }
 
-impl<S: OutputPin, D: OutputPin> Axes<S, D> {
-    /// Axes X, Y, Z at `start` (mm), `steps_per_mm`.
-    pub fn new(pins: [(S, D); 3], steps_per_mm: u32, start: Point3Mm) -> Self {
-        let spm = steps_per_mm as i64;
-        let b = start.to_bits();
-        let mut i = 0;
-        let axes = pins.map(|(step, dir)| {
-            let steps = Self::to_steps(b[i.min(2)], spm);
-            i += 1;
-            Axis {
-                step,
-                dir,
-                steps,
-                forward: None,
+impl<S: OutputPin, D: OutputPin> PinBank<S, D> {
+    /// X, Y, Z (step, direction).
+    pub fn new(pins: [(S, D); 3]) -> Self {
+        PinBank { pins }
+    }
+}
+
+impl<S: OutputPin, D: OutputPin> StepPins for PinBank<S, D> {
+    fn write(&mut self, e: Edges) {
+        // Pin errors cannot be reported from an interrupt: the board's
+        // pins are infallible (`Infallible`), others are ignored.
+        for (i, (step, dir)) in self.pins.iter_mut().enumerate() {
+            let (s, d) = (1u8 << i, 8u8 << i);
+            if e.clear & d != 0 {
+                let _ = dir.set_low();
             }
-        });
-        Axes {
-            axes,
-            steps_per_mm: spm,
-            lag_events: 0,
+            if e.set & d != 0 {
+                let _ = dir.set_high();
+            }
+            if e.clear & s != 0 {
+                let _ = step.set_low();
+            }
+            if e.set & s != 0 {
+                let _ = step.set_high();
+            }
+        }
+    }
+}
+
+/// The tick's side of a timer-driven step engine.
+pub struct StepQueue<'a> {
+    planner: Planner,
+    plans: PlanTx<'a>,
+    shared: &'a StepShared,
+    overruns: u32,
+}
+
+impl<'a> StepQueue<'a> {
+    /// Plans from `planner` into `plans`, the engine's figures from
+    /// `shared`.
+    pub fn new(planner: Planner, plans: PlanTx<'a>, shared: &'a StepShared) -> Self {
+        StepQueue {
+            planner,
+            plans,
+            shared,
+            overruns: 0,
         }
     }
 
-    /// `floor(mm × steps/mm)` for I32F32 bits (no overflow within ±2^31
-    /// mm and 2^31 steps/mm: the product is done in 128 bits).
-    fn to_steps(bits: i64, spm: i64) -> i64 {
-        ((bits as i128 * spm as i128) >> 32) as i64
-    }
-
-    /// Ticks on which an axis had more steps than one burst may hold.
-    pub fn lag_events(&self) -> u32 {
-        self.lag_events
-    }
-
-    /// Each axis's position, steps.
-    pub fn steps(&self) -> [i64; 3] {
-        [self.axes[0].steps, self.axes[1].steps, self.axes[2].steps]
+    fn send(&mut self, plan: TickPlan) {
+        if !self.plans.push(&plan) {
+            // The engine takes one a tick; a full queue means it stopped.
+            // The next plan starts where this one ended, so the engine
+            // carries the difference and reports it as lag.
+            self.overruns = self.overruns.wrapping_add(1);
+        }
     }
 }
 
-impl<S: OutputPin, D: OutputPin> StepOutput for Axes<S, D> {
+impl StepOutput for StepQueue<'_> {
     fn update(&mut self, pos: Point3Mm) {
-        let spm = self.steps_per_mm;
-        let mut lagged = false;
-        for (axis, bits) in self.axes.iter_mut().zip(pos.to_bits()) {
-            let want = Self::to_steps(bits, spm);
-            let diff = want - axis.steps;
-            if diff == 0 {
-                continue;
-            }
-            let forward = diff > 0;
-            if axis.forward != Some(forward) {
-                // Pin errors cannot be reported from a tick: the board's
-                // pins are infallible (`Infallible`), others are ignored.
-                let _ = if forward {
-                    axis.dir.set_high()
-                } else {
-                    axis.dir.set_low()
-                };
-                axis.forward = Some(forward);
-            }
-            let mut n = diff.unsigned_abs();
-            if n > MAX_STEPS_PER_TICK as u64 {
-                n = MAX_STEPS_PER_TICK as u64;
-                lagged = true;
-            }
-            for _ in 0..n {
-                let _ = axis.step.set_high();
-                let _ = axis.step.set_low();
-            }
-            axis.steps += if forward { n as i64 } else { -(n as i64) };
-        }
-        if lagged {
-            self.lag_events = self.lag_events.wrapping_add(1);
+        let plan = self.planner.plan(pos);
+        self.send(plan);
+    }
+
+    fn hold(&mut self) {
+        let plan = self.planner.hold();
+        self.send(plan);
+    }
+
+    fn report(&self) -> StepReport {
+        StepReport {
+            plan_overruns: self.overruns,
+            ..self.shared.read()
         }
     }
+}
+
+/// Planner and engine together, the engine run by the tick over the
+/// tick's window in virtual time (module docs).
+pub struct SoftSteps<'a, P> {
+    queue: StepQueue<'a>,
+    engine: StepEngine<'a>,
+    pins: P,
+    /// Virtual time of the next tick, timer counts.
+    now: u32,
+    window: u32,
+}
+
+impl<'a, P: StepPins> SoftSteps<'a, P> {
+    /// `queue` feeding `engine` (started 1.5 ticks after virtual time 0,
+    /// [`crate::steps::engine`] docs), edges to `pins`.
+    pub fn new(queue: StepQueue<'a>, engine: StepEngine<'a>, mut pins: P) -> Self {
+        pins.write(engine.idle_edges());
+        let window = engine.timing().window;
+        SoftSteps {
+            queue,
+            engine,
+            pins,
+            now: 0,
+            window,
+        }
+    }
+
+    /// The engine (position emitted, figures).
+    pub fn engine(&self) -> &StepEngine<'a> {
+        &self.engine
+    }
+
+    /// The pins.
+    pub fn pins(&self) -> &P {
+        &self.pins
+    }
+
+    fn run(&mut self) {
+        let end = self.now.wrapping_add(self.window).wrapping_sub(1);
+        let pins = &mut self.pins;
+        self.engine.run_until(end, |e, _| pins.write(e));
+        self.now = end.wrapping_add(1);
+    }
+}
+
+impl<P: StepPins> StepOutput for SoftSteps<'_, P> {
+    fn update(&mut self, pos: Point3Mm) {
+        self.queue.update(pos);
+        self.run();
+    }
+
+    fn hold(&mut self) {
+        self.queue.hold();
+        self.run();
+    }
+
+    fn report(&self) -> StepReport {
+        self.queue.report()
+    }
+}
+
+/// The first window of an engine that a tick at timer count `tick` will
+/// feed from then on: 1.5 ticks later ([`crate::steps::engine`] docs).
+pub const fn first_window(tick: u32, window: u32) -> u32 {
+    tick.wrapping_add(window + window / 2)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::steps::{PlanQueue, StepConfig, StepsPerMm, Timing};
     use core::convert::Infallible;
     use std::cell::RefCell;
     use std::rc::Rc;
@@ -147,16 +215,15 @@ mod tests {
         }
     }
 
-    fn axes(log: &Log, spm: u32) -> Axes<Rec, Rec> {
-        let pins = [0, 1, 2].map(|axis| {
+    fn pins(log: &Log) -> PinBank<Rec, Rec> {
+        PinBank::new([0, 1, 2].map(|axis| {
             let pin = |pin| Rec {
                 log: log.clone(),
                 axis,
                 pin,
             };
             (pin(0), pin(1))
-        });
-        Axes::new(pins, spm, Point3Mm::ORIGIN)
+        }))
     }
 
     /// The position each axis's pulses say it is at, counting a rising
@@ -182,25 +249,70 @@ mod tests {
         Point3Mm::from_f64(x, y, z).unwrap()
     }
 
+    struct Rig {
+        ring: PlanQueue,
+        shared: StepShared,
+        timing: Timing,
+        spm: [StepsPerMm; 3],
+    }
+
+    impl Rig {
+        fn new(spm: [u16; 3]) -> Self {
+            let spm = spm.map(StepsPerMm::from_int);
+            let timing = StepConfig::new(spm[0]).timing(84_000_000, 1000).unwrap();
+            Rig {
+                ring: PlanQueue::new(),
+                shared: StepShared::new(),
+                timing,
+                spm,
+            }
+        }
+
+        fn soft(&mut self, log: &Log) -> SoftSteps<'_, PinBank<Rec, Rec>> {
+            let (tx, rx) = self.ring.split();
+            let planner = Planner::new(self.spm, &self.timing, Point3Mm::ORIGIN);
+            let start = planner.position();
+            let queue = StepQueue::new(planner, tx, &self.shared);
+            let engine = StepEngine::new(
+                self.timing,
+                rx,
+                &self.shared,
+                start,
+                first_window(0, self.timing.window),
+            );
+            SoftSteps::new(queue, engine, pins(log))
+        }
+    }
+
+    /// Ticks to let the pipeline (1.5 ticks) drain.
+    fn settle(s: &mut impl StepOutput) {
+        for _ in 0..3 {
+            s.hold();
+        }
+    }
+
     #[test]
     fn the_first_move_of_each_axis_sets_dir_before_stepping() {
         for (first, want) in [(10.0, 1000), (-10.0, -1000)] {
             let log = Log::default();
-            let mut a = axes(&log, 100);
-            // 10 mm at 100 steps/mm in 0.5 mm moves (within a tick's burst).
+            let mut rig = Rig::new([100; 3]);
+            let mut a = rig.soft(&log);
+            // 10 mm at 100 steps/mm in 0.5 mm moves (50 kHz).
             for k in 1..=20 {
                 let x = first * k as f64 / 20.0;
                 a.update(mm(x, -x, x / 2.0));
             }
+            settle(&mut a);
             assert_eq!(replay(&log), [want, -want, want / 2]);
-            assert_eq!(a.steps(), [want, -want, want / 2]);
+            assert_eq!(a.engine().position(), [want, -want, want / 2]);
         }
     }
 
     #[test]
     fn back_and_forth_ends_where_commanded() {
         let log = Log::default();
-        let mut a = axes(&log, 100);
+        let mut rig = Rig::new([100; 3]);
+        let mut a = rig.soft(&log);
         let mut x = 0.0f64;
         for target in [10.0, -10.0, 10.0, 2.5] {
             while (x - target).abs() > 1e-9 {
@@ -208,23 +320,46 @@ mod tests {
                 a.update(mm(x, 0.0, 0.0));
             }
         }
+        settle(&mut a);
         assert_eq!(replay(&log)[0], 250);
-        assert_eq!(a.steps()[0], 250);
-        assert_eq!(a.lag_events(), 0);
+        assert_eq!(a.engine().position()[0], 250);
+        assert_eq!(a.report().fault(), None);
     }
 
     #[test]
-    fn steps_beyond_a_burst_are_carried_and_counted() {
+    fn per_axis_steps_per_mm() {
         let log = Log::default();
-        let mut a = axes(&log, 1000);
-        // 1 mm = 1000 steps in one tick: 64 now, the rest on later ticks.
-        a.update(mm(1.0, 0.0, 0.0));
-        assert_eq!(a.steps()[0], MAX_STEPS_PER_TICK as i64);
-        assert_eq!(a.lag_events(), 1);
-        for _ in 0..20 {
-            a.update(mm(1.0, 0.0, 0.0));
+        let mut rig = Rig::new([80, 400, 3200]);
+        let mut a = rig.soft(&log);
+        for k in 1..=10 {
+            let v = k as f64 * 0.1;
+            a.update(mm(v, -v, v / 4.0));
         }
-        assert_eq!(a.steps()[0], 1000);
+        settle(&mut a);
+        assert_eq!(replay(&log), [80, -400, 800]);
+        assert_eq!(a.report().fault(), None);
+    }
+
+    #[test]
+    fn steps_beyond_the_pulse_rate_are_carried_and_reported() {
+        let log = Log::default();
+        let mut rig = Rig::new([1000; 3]);
+        let mut a = rig.soft(&log);
+        // 1 mm = 1000 steps in one tick (1 MHz), the default pulse allows
+        // 200 kHz (200 a tick): the rest comes later, and it is reported.
+        a.update(mm(1.0, 0.0, 0.0));
+        settle(&mut a);
+        let r = a.report();
+        assert!(r.lag_ticks >= 1, "{r:?}");
+        assert!(r.lag_max_steps >= 790, "{r:?}");
+        assert!(matches!(
+            r.fault(),
+            Some(crate::steps::StepFault::Lag { .. })
+        ));
+        for _ in 0..10 {
+            a.hold();
+        }
         assert_eq!(replay(&log)[0], 1000);
+        assert_eq!(a.report().lag_now_steps, 0);
     }
 }

@@ -1,6 +1,6 @@
-//! The tick's work: the next setpoint from the ring to the axes (the
-//! highest-priority interrupt runs only this), and the counters status
-//! replies report.
+//! The tick's work: the next setpoint from the ring to the step output
+//! (which plans the tick's steps for the step timer), and the counters
+//! status replies report.
 //!
 //! The planner's tick costs too much for an interrupt in the worst case,
 //! so, like Grbl's segment buffer (`grbl/stepper.c`, `st_prep_buffer`), the
@@ -9,7 +9,8 @@
 //! one. Feed hold, resume and override reach the planner from the
 //! background, so they take effect after the setpoints already in the
 //! ring. An empty ring at a tick (the background fell behind) holds the
-//! position and is counted ([`TickExecutor::empty_ticks`]).
+//! position and is counted ([`TickExecutor::empty_ticks`]); the step
+//! output is told to hold, so that its plans stay one a tick.
 
 use fuzzy_core::planner::MotionState;
 use fuzzy_core::units::Point3Mm;
@@ -17,6 +18,7 @@ use fuzzy_core::units::Point3Mm;
 use crate::planning::Setpoint;
 use crate::ring::Consumer;
 use crate::stepper::StepOutput;
+use crate::steps::{StepFault, StepReport};
 
 #[allow(unused_imports)] // for the docs
 use crate::settings::SETPOINT_RING;
@@ -36,6 +38,8 @@ pub struct TickExecutor {
     /// Worst tick interrupt so far, cycles (set by the caller, who has the
     /// clock).
     pub worst_cycles: u32,
+    /// The step generator's figures (lag, late plans), as of this tick.
+    pub steps: StepReport,
     /// At rest at a path's start or end: the next motion starts a new count.
     rested: bool,
 }
@@ -49,6 +53,7 @@ impl TickExecutor {
             empty_ticks: 0,
             moving_ticks: 0,
             worst_cycles: 0,
+            steps: StepReport::NONE,
             rested: true,
         }
     }
@@ -65,6 +70,8 @@ impl TickExecutor {
             self.empty_ticks = self.empty_ticks.wrapping_add(1);
             self.now.feed_q12 = 0;
             self.now.moving = false;
+            outputs.hold();
+            self.steps = outputs.report();
             return;
         };
         if matches!(sp.state, MotionState::Idle | MotionState::Done) {
@@ -77,7 +84,14 @@ impl TickExecutor {
             self.moving_ticks = self.moving_ticks.wrapping_add(1);
         }
         outputs.update(sp.pos);
+        self.steps = outputs.report();
         self.now = sp;
+    }
+
+    /// A step generation fault (steps carried past their tick, ticks
+    /// without a plan, plans lost), for an alarm layer.
+    pub fn step_fault(&self) -> Option<StepFault> {
+        self.steps.fault()
     }
 }
 
@@ -87,12 +101,21 @@ mod tests {
     use crate::ring::Ring;
 
     #[derive(Default)]
-    struct Last(Option<Point3Mm>, u32);
+    struct Last(Option<Point3Mm>, u32, u32);
 
     impl StepOutput for Last {
         fn update(&mut self, pos: Point3Mm) {
             self.0 = Some(pos);
             self.1 += 1;
+        }
+        fn hold(&mut self) {
+            self.2 += 1;
+        }
+        fn report(&self) -> StepReport {
+            StepReport {
+                lag_ticks: self.1,
+                ..StepReport::NONE
+            }
         }
     }
 
@@ -116,6 +139,8 @@ mod tests {
         e.tick(&mut rx, &mut out);
         assert_eq!((e.ticks, e.empty_ticks), (2, 1));
         assert_eq!(out.1, 1, "nothing sent to the axes on an empty tick");
+        assert_eq!(out.2, 1, "but the position held");
+        assert_eq!(e.steps.lag_ticks, 1, "the step figures are the output's");
         assert_eq!(e.now.pos, Point3Mm::from_bits(5, 0, 0), "held");
         assert_eq!(e.now.feed_q12, 0);
         assert!(!e.now.moving);

@@ -1,6 +1,7 @@
 //! Everything that knows the chip and the board: clocks, the link USART, the
-//! interpolator timer, the step/direction pins. Porting to another STM32 or
-//! another pin-out means a new file like this one, nothing else.
+//! interpolator timer, the step timer, the step/direction pins. Porting to
+//! another STM32 or another pin-out means a new file like this one, nothing
+//! else.
 //!
 //! Board: STM32F405/F407 (STM32F4-Discovery, Netduino Plus 2, most F4 CNC
 //! and printer boards), and QEMU's `netduinoplus2` (feature `qemu`).
@@ -9,6 +10,7 @@
 //! |---|---|---|
 //! | link, 921 600 8N1 (`FW_LINK_BAUD`) | USART1 | PA9 TX, PA10 RX (AF7) |
 //! | interpolator tick | SysTick (core timer, exception) | |
+//! | step timer (edges at exact times) | TIM2, 32-bit, 84 MHz, compare channel 1 interrupt (no pin) | |
 //! | X step / dir | GPIOE | PE0 / PE1 |
 //! | Y step / dir | GPIOE | PE2 / PE3 |
 //! | Z step / dir | GPIOE | PE4 / PE5 |
@@ -18,12 +20,19 @@
 //! Its TIM2-5 model does not keep a steady period (measured: ~150 updates
 //! per second for a 1 kHz set-up), so the interpolator ticks on SysTick, the
 //! core's own timer, which QEMU models exactly at 168 MHz; it does the same
-//! on the board (see [`crate::measure`]). Everything else is the same code
-//! on both.
+//! on the board (see [`crate::measure`]). Nor can TIM2 drive the step
+//! engine there: QEMU 7.2 (and 10.0) count TIM2's CNT at 1 GHz of virtual
+//! time but never raise a compare match (CC1IF stays clear, no interrupt;
+//! measured with a probe image), so with feature `qemu` the tick runs the
+//! engine itself over its window in virtual time
+//! ([`controller::stepper::SoftSteps`]) and TIM2 is left off. Everything
+//! else is the same code on both.
 
 use core::convert::Infallible;
 
-use controller::settings::LINK_BAUD;
+use controller::settings::{LINK_BAUD, STEP_TIMER_HZ, TICK_HZ};
+use controller::stepper::StepPins;
+use controller::steps::Edges;
 use stm32f4::stm32f405 as pac;
 
 /// Core clock, Hz (also SysTick's, our cycle counter).
@@ -39,6 +48,22 @@ const _: () = assert!(
     "FW_LINK_BAUD is more than 1 % off on an 84 MHz APB2"
 );
 
+/// TIM2's clock: APB1 (42 MHz) × 2, the timers' rule when the APB1
+/// prescaler is not 1 (RM0090 §7.2).
+const TIM2_HZ: u32 = 2 * 42_000_000;
+
+const _: () = assert!(
+    TIM2_HZ == STEP_TIMER_HZ,
+    "the step timer's clock in controller::settings is not TIM2's"
+);
+// The tick (SysTick, core clock) and the step engine's windows (TIM2) come
+// from the same PLL: they stay in step only if a tick is a whole number of
+// counts of both.
+const _: () = assert!(
+    STEP_TIMER_HZ % TICK_HZ == 0 && SYSCLK_HZ % TICK_HZ == 0,
+    "FW_TICK_HZ must divide 84 MHz (e.g. 500, 1000, 2000, 4000)"
+);
+
 /// The peripherals the application uses, set up.
 pub struct Board {
     /// Link receive side (used in the USART interrupt).
@@ -47,6 +72,11 @@ pub struct Board {
     pub tx: UsartTx,
     /// Step/direction pins, X, Y, Z.
     pub axes: [(Pin, Pin); 3],
+    /// The same pins, written a batch at a time (the step engine's).
+    pub step_pins: StepGpio,
+    /// The step timer (running, its interrupt enabled in the peripheral;
+    /// RTIC unmasks it). Not started under QEMU.
+    pub step_timer: StepTimer,
 }
 
 /// Clocks, pins and USART1 (receive interrupt enabled; RTIC unmasks it in
@@ -54,11 +84,12 @@ pub struct Board {
 pub fn init(dp: pac::Peripherals) -> Board {
     clocks(&dp);
     let rcc = &dp.RCC;
-    // GPIOA, GPIOE; USART1.
+    // GPIOA, GPIOE; USART1; TIM2.
     rcc.ahb1enr
         .modify(|r, w| unsafe { w.bits(r.bits() | (1 << 0) | (1 << 4)) });
     rcc.apb2enr
         .modify(|r, w| unsafe { w.bits(r.bits() | (1 << 4)) });
+    rcc.apb1enr.modify(|r, w| unsafe { w.bits(r.bits() | 1) });
 
     // PA9/PA10 alternate function 7 (USART1).
     let gpioa = &dp.GPIOA;
@@ -84,11 +115,16 @@ pub fn init(dp: pac::Peripherals) -> Board {
         .cr1
         .write(|w| unsafe { w.bits((1 << 13) | (1 << 5) | (1 << 3) | (1 << 2)) });
 
+    #[cfg(not(feature = "qemu"))]
+    StepTimer::start(&dp.TIM2);
+
     let pin = |n: u32| Pin { mask: 1 << n };
     Board {
         rx: UsartRx(()),
         tx: UsartTx(()),
         axes: [(pin(0), pin(1)), (pin(2), pin(3)), (pin(4), pin(5))],
+        step_pins: StepGpio(()),
+        step_timer: StepTimer(()),
     }
 }
 
@@ -182,5 +218,118 @@ impl embedded_hal::digital::OutputPin for Pin {
         // SAFETY: as above.
         unsafe { (*pac::GPIOE::ptr()).bsrr.write(|w| w.bits(self.mask)) };
         Ok(())
+    }
+}
+
+/// GPIOE's BSRR set bits for an [`Edges`] mask (bit `i` step of axis `i`
+/// on PE(2i), bit `3 + i` its direction on PE(2i + 1)).
+const fn bsrr_bits(mask: u8) -> u32 {
+    let mut out = 0u32;
+    let mut i = 0;
+    while i < 3 {
+        if mask & (1 << i) != 0 {
+            out |= 1 << (2 * i);
+        }
+        if mask & (8 << i) != 0 {
+            out |= 1 << (2 * i + 1);
+        }
+        i += 1;
+    }
+    out
+}
+
+/// [`bsrr_bits`] for every mask.
+static BSRR: [u8; 64] = {
+    let mut t = [0u8; 64];
+    let mut m = 0;
+    while m < 64 {
+        t[m] = bsrr_bits(m as u8) as u8;
+        m += 1;
+    }
+    t
+};
+
+/// The step/direction pins (PE0..PE5) as one port: a batch of edges is one
+/// BSRR write, all its pins changing on the same bus cycle.
+pub struct StepGpio(());
+
+impl StepGpio {
+    /// The pins (GPIOE set up by [`init`]); more than one writes the same
+    /// port (the cost benchmark's second engine).
+    pub fn new() -> Self {
+        StepGpio(())
+    }
+}
+
+impl Default for StepGpio {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl StepPins for StepGpio {
+    #[inline]
+    fn write(&mut self, e: Edges) {
+        let set = BSRR.get((e.set & 63) as usize).copied().unwrap_or(0) as u32;
+        let clear = BSRR.get((e.clear & 63) as usize).copied().unwrap_or(0) as u32;
+        if set | clear != 0 {
+            // SAFETY: BSRR writes are atomic set/reset of our own pins only.
+            unsafe {
+                (*pac::GPIOE::ptr())
+                    .bsrr
+                    .write(|w| w.bits(set | (clear << 16)))
+            };
+        }
+    }
+}
+
+/// TIM2 as the step engine's clock: free-running 32-bit up-counter at
+/// 84 MHz, compare channel 1 (frozen: no pin) raising the interrupt.
+pub struct StepTimer(());
+
+fn tim2() -> &'static pac::tim2::RegisterBlock {
+    // SAFETY: TIM2's registers; only the step timer task (and init) use
+    // them.
+    unsafe { &*pac::TIM2::ptr() }
+}
+
+impl StepTimer {
+    /// No prescaler, full 32-bit period, compare 1 interrupt, counting.
+    #[cfg(not(feature = "qemu"))]
+    fn start(t: &pac::TIM2) {
+        t.psc.write(|w| unsafe { w.bits(0) });
+        t.arr.write(|w| w.bits(u32::MAX));
+        t.egr.write(|w| unsafe { w.bits(1) }); // UG: load PSC
+        t.sr.write(|w| unsafe { w.bits(0) });
+        t.dier.write(|w| unsafe { w.bits(1 << 1) }); // CC1IE
+        t.cr1.write(|w| unsafe { w.bits(1) }); // CEN
+    }
+
+    /// The counter.
+    #[inline(always)]
+    pub fn now(&self) -> u32 {
+        tim2().cnt.read().bits()
+    }
+
+    /// Whether the counter has reached `at`.
+    #[inline(always)]
+    pub fn reached(&self, at: u32) -> bool {
+        (self.now().wrapping_sub(at) as i32) >= 0
+    }
+
+    /// Interrupt at `at`; `true` if the counter is already there (then
+    /// no interrupt is due: the caller handles it now).
+    #[inline]
+    pub fn arm(&mut self, at: u32) -> bool {
+        let t = tim2();
+        t.sr.write(|w| unsafe { w.bits(!(1u32 << 1)) }); // clear CC1IF
+        t.ccr1().write(|w| w.bits(at));
+        self.reached(at)
+    }
+
+    /// Clear a compare flag that needs no handling.
+    #[inline]
+    pub fn clear(&mut self) {
+        tim2().sr.write(|w| unsafe { w.bits(!(1u32 << 1)) });
     }
 }
