@@ -501,6 +501,9 @@ impl DeviceLink {
             empty_ticks: exec.empty_ticks,
             generated_ticks: i.generated,
             positions_checksum: i.checksum,
+            step_lag_ticks: exec.steps.lag_ticks,
+            step_lag_max_steps: exec.steps.lag_max_steps,
+            step_late_ticks: exec.steps.late_windows,
         }
     }
 }

@@ -147,6 +147,46 @@ mod tests {
     }
 
     #[test]
+    fn step_lag_reaches_the_status_reply() {
+        use crate::session::DeviceLink;
+        use crate::stepper::{first_window, SoftSteps, StepQueue};
+        use crate::steps::{
+            Edges, PlanQueue, Planner, StepConfig, StepEngine, StepShared, StepsPerMm,
+        };
+        struct NoPins;
+        impl crate::stepper::StepPins for NoPins {
+            fn write(&mut self, _: Edges) {}
+        }
+        let spm = StepsPerMm::from_int(1000);
+        let timing = StepConfig::new(spm).timing(84_000_000, 1000).unwrap();
+        let (mut plans, shared) = (PlanQueue::new(), StepShared::new());
+        let (tx, rx) = plans.split();
+        let planner = Planner::new([spm; 3], &timing, Point3Mm::ORIGIN);
+        let start = planner.position();
+        let engine = StepEngine::new(timing, rx, &shared, start, first_window(0, timing.window));
+        let mut out = SoftSteps::new(StepQueue::new(planner, tx, &shared), engine, NoPins);
+        let mut ring: Ring<Setpoint, SETPOINT_RING> = Ring::new();
+        let (mut sp_tx, mut sp_rx) = ring.split();
+        let mut e = TickExecutor::new(Point3Mm::ORIGIN);
+        // 1 mm a tick at 1000 steps/mm: 1 MHz, five times what 2.5 µs
+        // pulses allow.
+        for k in 1..=5 {
+            sp_tx
+                .enqueue(sp(k << 32, MotionState::Moving, true))
+                .unwrap();
+            e.tick(&mut sp_rx, &mut out);
+        }
+        for _ in 0..3 {
+            e.tick(&mut sp_rx, &mut out);
+        }
+        let s = DeviceLink::new().status(&e);
+        assert!(s.step_lag_ticks >= 3, "{s:?}");
+        assert!(s.step_lag_max_steps >= 1000, "{s:?}");
+        assert_eq!(s.step_late_ticks, 0);
+        assert!(matches!(e.step_fault(), Some(StepFault::Lag { .. })));
+    }
+
+    #[test]
     fn moving_ticks_count_from_the_first_move_of_a_path() {
         let mut ring: Ring<Setpoint, SETPOINT_RING> = Ring::new();
         let (mut tx, mut rx) = ring.split();

@@ -32,7 +32,10 @@ RAM_BUDGET = 32 * 1024
 # per-tick generation runs in the background and has no per-call budget.
 COST_BUDGET = {"sched_mean": 2000, "isr_worst": 8400}
 COST_KEYS = ["sched_mean", "sched_worst", "push_mean", "push_worst", "gen_mean", "gen_worst",
-             "isr_mean", "isr_worst", "override_worst"]
+             "isr_mean", "isr_worst", "override_worst",
+             "plan_mean", "plan_worst", "step_batch_mean", "step_batch_worst", "step_per_step"]
+# From the `cost steps3x` line (three axes at 150/120/105 kHz), prefixed.
+STEPS3X_KEYS = ["batch_mean", "batch_worst", "per_step", "engine_permille"]
 QEMU_TIMEOUT_S = 300
 
 
@@ -71,12 +74,12 @@ def compare(name, now, base, budgets):
         if k in budgets and v > budgets[k]:
             note = f"  OVER BUDGET ({budgets[k]})"
         if b is None:
-            print(f"  {k:<12} {v:>8}   (no baseline){note}")
+            print(f"  {k:<24} {v:>8}   (no baseline){note}")
             continue
         grow = v > b * GROWTH
         failed |= grow
         pct = (v - b) * 100.0 / b if b else 0.0
-        print(f"  {k:<12} {v:>8}   baseline {b:>8} ({pct:+.1f} %){'  GREW > 10 %' if grow else ''}{note}")
+        print(f"  {k:<24} {v:>8}   baseline {b:>8} ({pct:+.1f} %){'  GREW > 10 %' if grow else ''}{note}")
     if failed:
         print(f"{name}: a figure grew by more than 10 % over firmware/baseline/ (re-bless only if intended)")
     return failed
@@ -135,6 +138,12 @@ def cost(bless):
         return 1
     kv = dict(x.split("=") for x in m.group(1).split())
     now = {k: int(kv[k]) for k in COST_KEYS}
+    m3 = re.search(r"^cost steps3x (.*)$", res.stdout, re.M)
+    if not m3:
+        print("cost: no steps3x line")
+        return 1
+    kv3 = dict(x.split("=") for x in m3.group(1).split())
+    now.update({"steps3x_" + k: int(kv3[k]) for k in STEPS3X_KEYS})
     st = re.search(r"stack_bytes=(\d+)", res.stdout)
     path = os.path.join(BASE, "cost.txt")
     print("cost (instructions, QEMU -icount shift=0):")

@@ -68,10 +68,12 @@ impl Message for DeviceMsg {
     const TAG: u8 = TAG_BASE | (PROTOCOL_VERSION << 1) | 1;
 }
 
-/// Largest frame on the wire, delimiter included, bytes.
-pub const FRAME_MAX: usize = 128;
-/// Largest payload (tag and postcard bytes), bytes.
-pub const PAYLOAD_MAX: usize = 112;
+/// Largest frame on the wire, delimiter included, bytes (the largest
+/// payload and its CRC, COBS-encoded: one byte more, and the delimiter).
+pub const FRAME_MAX: usize = 136;
+/// Largest payload (tag and postcard bytes), bytes: a [`Status`] with every
+/// field at its maximum.
+pub const PAYLOAD_MAX: usize = 127;
 /// CRC bytes after the payload.
 pub const CRC_LEN: usize = 4;
 /// The frame delimiter.
@@ -246,6 +248,15 @@ pub struct Status {
     /// FNV-1a (64-bit, folded to 32: high ⊕ low) over the three I32F32
     /// coordinates of every generated setpoint since boot, in order.
     pub positions_checksum: u32,
+    /// Ticks that ended with an axis short of its commanded position (step
+    /// rate above what the pulse width allows, or a step plan lost): the
+    /// steps are carried, never dropped. Zero in a healthy machine.
+    pub step_lag_ticks: u32,
+    /// Largest shortfall at a tick's end, steps.
+    pub step_lag_max_steps: u32,
+    /// Ticks the step engine ran without a plan (the tick interrupt late by
+    /// more than half a tick): the motion after ran a tick later.
+    pub step_late_ticks: u32,
 }
 
 /// A command the velocity planner took (reported by [`DeviceMsg::Planned`]).
@@ -574,6 +585,9 @@ mod tests {
             empty_ticks: u32::MAX,
             generated_ticks: u32::MAX,
             positions_checksum: u32::MAX,
+            step_lag_ticks: u32::MAX,
+            step_lag_max_steps: u32::MAX,
+            step_late_ticks: u32::MAX,
             planned_points: u16::MAX,
             points_held: u16::MAX,
             override_percent: u16::MAX,
