@@ -129,7 +129,7 @@ impl SimConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::machine::fanuc::FanucMode;
+    use crate::experiments::dat_phuc2024::fanuc::FanucMode;
 
     #[test]
     fn defaults_round_trip_through_toml() {

@@ -6,8 +6,8 @@
 //! fails here. Same figures: `./scripts/run.sh` (table in
 //! `results/claims.csv`).
 
-use host_sim::compare;
 use host_sim::config::SimConfig;
+use host_sim::experiments::lin2021::compare;
 use host_sim::methods::Method;
 use host_sim::shapes::Shape;
 use host_sim::simulate::{self, Prepared};

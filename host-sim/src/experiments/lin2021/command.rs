@@ -6,15 +6,15 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use host_sim::compare;
-use host_sim::inputs;
-use host_sim::methods::Method;
-use host_sim::plots;
-use host_sim::report;
-use host_sim::shapes::Shape;
-use host_sim::simulate::{Prepared, RunResult};
+use crate::experiments::lin2021::compare;
+use crate::experiments::lin2021::report;
+use crate::inputs;
+use crate::methods::Method;
+use crate::plots;
+use crate::shapes::Shape;
+use crate::simulate::{Prepared, RunResult};
 
-use crate::common::{MachineArgs, OutputFiles};
+use crate::cli::{MachineArgs, OutputFiles};
 
 /// Arguments of `compare`.
 #[derive(clap::Args, Debug)]

@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 
 use anyhow::Result;
 
-use crate::compare::{Claim, Report, Row};
+use crate::experiments::lin2021::compare::{Claim, Report, Row};
 
 /// The table and the claims as plain text.
 pub fn text(report: &Report) -> String {

@@ -8,6 +8,14 @@ use fuzzy_core::fuzzy::export::{write_fcl, write_fis};
 use fuzzy_core::lin2021::{CONTROLLER, SYSTEM};
 use fuzzy_core::units::Fx;
 
+/// Arguments of `controller`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
 /// `controller` subcommands.
 #[derive(clap::Subcommand, Debug)]
 pub enum Command {
@@ -66,8 +74,8 @@ fn output(path: &Option<PathBuf>) -> Result<Box<dyn Write>> {
 }
 
 /// Run a `controller` subcommand.
-pub fn run(cmd: &Command) -> Result<()> {
-    match cmd {
+pub fn run(args: &Args) -> Result<()> {
+    match &args.command {
         Command::Export {
             format,
             output: path,
