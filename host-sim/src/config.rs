@@ -77,6 +77,8 @@ impl SimConfig {
         );
         self.machine.validate(self.ts_s())?;
         self.planner.validate(self.ts_s())?;
+        self.methods.grbl_like.validate()?;
+        self.methods.blend.validate()?;
         let f = &self.methods.fuzzy;
         anyhow::ensure!(
             f.f_min_mm_per_min.is_finite() && f.f_min_mm_per_min >= 0.0,

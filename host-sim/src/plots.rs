@@ -114,6 +114,9 @@ fn colour(m: Method) -> RGBColor {
         Method::Fuzzy => RGBColor(214, 39, 40),
         Method::FuzzyNoFilter => RGBColor(255, 127, 14),
         Method::FuzzyPlanner => RGBColor(44, 160, 44),
+        Method::Planner => RGBColor(148, 103, 189),
+        Method::GrblLike => RGBColor(140, 86, 75),
+        Method::Blend => RGBColor(23, 190, 207),
     }
 }
 

@@ -6,7 +6,7 @@ use anyhow::Result;
 use crate::config::SimConfig;
 use crate::contour_error::PathIndex;
 use crate::machine::Motion;
-use crate::methods::{self, Method, Schedule};
+use crate::methods::{self, blend, grbl_like, AxisLimits, Method, Schedule};
 use crate::metrics::{Kinematics, Metrics};
 use crate::planner;
 use crate::toolpath::Toolpath;
@@ -49,8 +49,9 @@ pub struct RunResult {
 }
 
 /// Simulate a given schedule on the configured machine and measure it.
-/// With [`Method::FuzzyPlanner`] the feeds are the planner's upper bounds
-/// and the machine follows the planner's positions
+/// With a tick-stream method ([`Method::is_tick_stream`]) the feeds are the
+/// upper bounds of its planner and the machine follows the planner's
+/// positions through its after-interpolation stage only
 /// ([`crate::planner::machine`]).
 pub fn run_schedule(
     prepared: &Prepared,
@@ -59,18 +60,29 @@ pub fn run_schedule(
     schedule: Schedule,
     config: &SimConfig,
 ) -> Result<RunResult> {
-    let motion = if method == Method::FuzzyPlanner {
-        let path = &prepared.path;
-        let points =
-            planner::motion_points(path, &schedule.feeds_mm_per_min, &schedule.curvature_per_mm)?;
-        let planned = planner::plan(&points, &path.lines, &config.planner)?;
-        planner::machine::follow(&config.machine, planned.commanded(), config.ts_s())
-    } else {
-        config.machine.simulate(
-            &prepared.path.points,
-            &schedule.feeds_mm_per_min,
-            config.ts_s(),
-        )
+    let path = &prepared.path;
+    let ts = config.ts_s();
+    let limits = AxisLimits::of(&config.planner);
+    let feeds = &schedule.feeds_mm_per_min;
+    let motion = match method {
+        Method::FuzzyPlanner | Method::Planner => {
+            let points = planner::motion_points(path, feeds, &schedule.curvature_per_mm)?;
+            let planned = planner::plan(&points, &path.lines, &config.planner)?;
+            planner::machine::follow(&config.machine, planned.commanded(), ts)
+        }
+        Method::GrblLike => {
+            let s = &config.methods.grbl_like;
+            let c = grbl_like::commanded(&path.points, feeds, s, &limits, ts)?;
+            planner::machine::follow(&config.machine, c, ts)
+        }
+        Method::Blend => {
+            let s = &config.methods.blend;
+            let c = blend::commanded(&path.points, feeds, s, &limits, ts)?;
+            planner::machine::follow(&config.machine, c, ts)
+        }
+        Method::Constant | Method::ChordError | Method::Fuzzy | Method::FuzzyNoFilter => {
+            config.machine.simulate(&path.points, feeds, ts)
+        }
     };
     let (metrics, kinematics, contour_error_mm) = Metrics::measure(&prepared.index, &motion);
     Ok(RunResult {
