@@ -147,6 +147,19 @@ impl PathIndex {
 
     /// Distance from `p` to the polyline (mm) and the nearest point of it.
     pub fn nearest(&self, p: [f64; 3]) -> (f64, [f64; 3]) {
+        let (best, i) = self.nearest_segment(p);
+        let t = segment_t(p, self.a[i], self.ab[i], self.len2[i]);
+        let q = [
+            self.a[i][0] + t * self.ab[i][0],
+            self.a[i][1] + t * self.ab[i][1],
+            self.a[i][2] + t * self.ab[i][2],
+        ];
+        (best, q)
+    }
+
+    /// Distance from `p` to the polyline (mm) and the index of the nearest
+    /// segment (segment `i` runs from point `i` to point `i + 1`).
+    pub fn nearest_segment(&self, p: [f64; 3]) -> (f64, usize) {
         let mut best_seg = 0usize;
         let c = [
             (p[0] / self.cell_mm).floor() as i64,
@@ -194,14 +207,7 @@ impl PathIndex {
                 }
             }
         }
-        let i = best_seg;
-        let t = segment_t(p, self.a[i], self.ab[i], self.len2[i]);
-        let q = [
-            self.a[i][0] + t * self.ab[i][0],
-            self.a[i][1] + t * self.ab[i][1],
-            self.a[i][2] + t * self.ab[i][2],
-        ];
-        (best, q)
+        (best, best_seg)
     }
 }
 

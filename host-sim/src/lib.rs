@@ -13,6 +13,7 @@
 //! in [`experiments`] (one folder per paper: model, command, report), the
 //! others in [`cli`].
 
+pub mod cam_corpus;
 pub mod cli;
 pub mod config;
 pub mod contour_error;

@@ -5,7 +5,9 @@ use std::fmt::Write as _;
 
 use anyhow::Result;
 
-use crate::experiments::lin2021::compare::{Claim, Report, Row};
+use serde::Serialize;
+
+use crate::experiments::lin2021::compare::{Claim, Knob, Matched, ParetoPoint, Report, Row};
 
 /// The table and the claims as plain text.
 pub fn text(report: &Report) -> String {
@@ -68,7 +70,12 @@ pub fn text(report: &Report) -> String {
             m.peak_axis_jerk_mm_per_s3[1],
         );
     }
-    if !report.claims.is_empty() {
+    let constant: Vec<&Claim> = report
+        .claims
+        .iter()
+        .filter(|c| c.baseline == "constant")
+        .collect();
+    if !constant.is_empty() {
         let _ = writeln!(
             s,
             "\nfuzzy (and fuzzy-planner) vs constant feed (paper: 43 % lower max error at equal time, 49 % shorter time at equal max error)"
@@ -88,25 +95,153 @@ pub fn text(report: &Report) -> String {
             "const s",
             "time -%"
         );
-        for c in &report.claims {
+        for c in constant {
             let _ = writeln!(
                 s,
-                "{:<12} {:<14} {:>8.0} {:>9.3} {:>9.4} | {:>9.0} {:>9.4} {:>8.1} | {:>9.0} {:>9.3} {:>8.1}",
+                "{:<12} {:<14} {:>8.0} {:>9.3} {:>9.4} | {} | {}",
                 c.path,
                 c.method,
                 c.f_max_mm_per_min,
                 c.fuzzy_cycle_time_s,
                 c.fuzzy_contour_error_max_mm,
-                c.equal_time.feed_mm_per_min,
-                c.equal_time.contour_error_max_mm,
-                100.0 * c.error_reduction,
-                c.equal_error.feed_mm_per_min,
-                c.equal_error.cycle_time_s,
-                100.0 * c.time_reduction,
+                matched_text(&c.equal_time, true, c.error_reduction()),
+                matched_text(&c.equal_error, false, c.time_reduction()),
+            );
+        }
+    }
+    let baselines: Vec<&Claim> = report
+        .claims
+        .iter()
+        .filter(|c| c.baseline != "constant")
+        .collect();
+    if !baselines.is_empty() {
+        let _ = writeln!(
+            s,
+            "\nfuzzy-planner vs each baseline: error ratio E_fp/E_b at equal cycle time (goal <= 0.60 against the best), time ratio T_fp/T_b at equal max error (goal <= 0.80); the baseline's feed is searched, else its tolerance (T)"
+        );
+        let _ = writeln!(
+            s,
+            "{:<12} {:>6} {:<17} {:>8} {:>8} | {:>9} {:>9} {:>7} | {:>9} {:>9} {:>7}",
+            "path", "Fmax", "baseline", "same F:s", "mm", "F (tol)", "err mm", "E ratio", "F (tol)", "time s", "T ratio"
+        );
+        for c in &baselines {
+            let _ = writeln!(
+                s,
+                "{:<12} {:>6.0} {:<17} {:>8.3} {:>8.4} | {} | {}",
+                c.path,
+                c.f_max_mm_per_min,
+                c.baseline_label(),
+                c.baseline_cycle_time_s,
+                c.baseline_contour_error_max_mm,
+                ratio_text(&c.equal_time, true, c.error_ratio),
+                ratio_text(&c.equal_error, false, c.time_ratio),
+            );
+        }
+        let _ = writeln!(s, "\nagainst the best baseline (lowest error at equal time; shortest time at equal error):");
+        for b in best(report) {
+            let _ = writeln!(
+                s,
+                "{:<12} {:>6.0}  error ratio {} ({})  time ratio {} ({})",
+                b.path,
+                b.f_max_mm_per_min,
+                b.error_ratio.map_or("  -  ".into(), |r| format!("{r:.2}")),
+                b.error_baseline,
+                b.time_ratio.map_or("  -  ".into(), |r| format!("{r:.2}")),
+                b.time_baseline,
             );
         }
     }
     s
+}
+
+fn matched_text(m: &Option<Matched>, error: bool, reduction: Option<f64>) -> String {
+    match (m, reduction) {
+        (Some(m), Some(r)) => format!(
+            "{:>9.0} {:>9.4} {:>8.1}",
+            m.feed_mm_per_min,
+            if error { m.contour_error_max_mm } else { m.cycle_time_s },
+            100.0 * r
+        ),
+        _ => format!("{:>9} {:>9} {:>8}", "-", "-", "-"),
+    }
+}
+
+fn ratio_text(m: &Option<Matched>, error: bool, ratio: Option<f64>) -> String {
+    match (m, ratio) {
+        (Some(m), Some(r)) => {
+            let setting = match m.knob {
+                Knob::Feed => format!("{:.0}", m.feed_mm_per_min),
+                Knob::Tolerance => format!("T{:.4}", m.tolerance_mm.unwrap_or(0.0)),
+            };
+            format!(
+                "{:>9} {:>9.4} {:>7.2}",
+                setting,
+                if error { m.contour_error_max_mm } else { m.cycle_time_s },
+                r
+            )
+        }
+        _ => format!("{:>9} {:>9} {:>7}", "none", "-", "-"),
+    }
+}
+
+/// fuzzy-planner against its best baseline on one path and feed.
+#[derive(Clone, Debug, Serialize)]
+pub struct Best {
+    /// Toolpath name.
+    pub path: String,
+    /// Maximum feed, mm/min.
+    pub f_max_mm_per_min: f64,
+    /// `E_fp / E_b` at equal time against the baseline with the lowest
+    /// error there (`None`: no baseline matched).
+    pub error_ratio: Option<f64>,
+    /// That baseline.
+    pub error_baseline: String,
+    /// `T_fp / T_b` at equal error against the baseline with the shortest
+    /// time there.
+    pub time_ratio: Option<f64>,
+    /// That baseline.
+    pub time_baseline: String,
+}
+
+/// For each path and feed, fuzzy-planner against the best baseline in each
+/// respect (the constant feed excluded).
+pub fn best(report: &Report) -> Vec<Best> {
+    let mut out: Vec<Best> = Vec::new();
+    for c in report.claims.iter().filter(|c| c.baseline != "constant") {
+        let i = match out
+            .iter()
+            .position(|b| b.path == c.path && b.f_max_mm_per_min == c.f_max_mm_per_min)
+        {
+            Some(i) => i,
+            None => {
+                out.push(Best {
+                    path: c.path.clone(),
+                    f_max_mm_per_min: c.f_max_mm_per_min,
+                    error_ratio: None,
+                    error_baseline: "none".into(),
+                    time_ratio: None,
+                    time_baseline: "none".into(),
+                });
+                out.len() - 1
+            }
+        };
+        let b = &mut out[i];
+        // The best baseline has the lowest error at equal time, i.e. the
+        // highest ratio E_fp/E_b; likewise for time.
+        if let Some(r) = c.error_ratio {
+            if b.error_ratio.is_none_or(|x| r > x) {
+                b.error_ratio = Some(r);
+                b.error_baseline = c.baseline_label();
+            }
+        }
+        if let Some(r) = c.time_ratio {
+            if b.time_ratio.is_none_or(|x| r > x) {
+                b.time_ratio = Some(r);
+                b.time_baseline = c.baseline_label();
+            }
+        }
+    }
+    out
 }
 
 /// The table as CSV (one row per path × method × feed).
@@ -115,6 +250,7 @@ pub fn rows_csv(rows: &[Row]) -> Result<String> {
     w.write_record([
         "path",
         "method",
+        "tolerance_mm",
         "f_max_mm_per_min",
         "cycle_time_s",
         "contour_error_max_mm",
@@ -129,10 +265,13 @@ pub fn rows_csv(rows: &[Row]) -> Result<String> {
         "peak_jerk_x_mm_per_s3",
         "peak_jerk_y_mm_per_s3",
         "peak_jerk_z_mm_per_s3",
+        "axis_acc_ratio",
+        "axis_jerk_ratio",
+        "time_at_feed_s",
     ])?;
     for r in rows {
         let m = &r.metrics;
-        let mut rec = vec![r.path.clone(), r.method.to_string()];
+        let mut rec = vec![r.path.clone(), r.method.to_string(), opt(r.tolerance_mm)];
         rec.extend(
             [
                 r.f_max_mm_per_min,
@@ -149,6 +288,9 @@ pub fn rows_csv(rows: &[Row]) -> Result<String> {
                 m.peak_axis_jerk_mm_per_s3[0],
                 m.peak_axis_jerk_mm_per_s3[1],
                 m.peak_axis_jerk_mm_per_s3[2],
+                m.axis_acc_ratio,
+                m.axis_jerk_ratio,
+                m.time_at_feed_s,
             ]
             .iter()
             .map(|v| format!("{v}")),
@@ -158,51 +300,106 @@ pub fn rows_csv(rows: &[Row]) -> Result<String> {
     Ok(String::from_utf8(w.into_inner()?)?)
 }
 
-/// The claims as CSV.
+fn opt(v: Option<f64>) -> String {
+    v.map_or(String::new(), |v| format!("{v}"))
+}
+
+/// The claims as CSV: one row per fuzzy run and baseline (empty fields:
+/// not matched).
 pub fn claims_csv(claims: &[Claim]) -> Result<String> {
     let mut w = csv::Writer::from_writer(Vec::new());
     w.write_record([
         "path",
         "method",
         "f_max_mm_per_min",
+        "baseline",
+        "baseline_tolerance_mm",
         "fuzzy_cycle_time_s",
         "fuzzy_contour_error_max_mm",
-        "equal_time_constant_feed_mm_per_min",
-        "equal_time_constant_contour_error_max_mm",
+        "baseline_cycle_time_s",
+        "baseline_contour_error_max_mm",
+        "equal_time_knob",
+        "equal_time_feed_mm_per_min",
+        "equal_time_tolerance_mm",
+        "equal_time_contour_error_max_mm",
+        "error_ratio",
         "error_reduction",
-        "equal_error_constant_feed_mm_per_min",
-        "equal_error_constant_cycle_time_s",
+        "equal_error_knob",
+        "equal_error_feed_mm_per_min",
+        "equal_error_tolerance_mm",
+        "equal_error_cycle_time_s",
+        "time_ratio",
         "time_reduction",
     ])?;
+    let knob = |m: &Option<Matched>| match m.as_ref().map(|m| m.knob) {
+        Some(Knob::Feed) => "feed".to_string(),
+        Some(Knob::Tolerance) => "tolerance".to_string(),
+        None => String::new(),
+    };
     for c in claims {
-        let mut rec = vec![c.path.clone(), c.method.to_string()];
-        rec.extend(
-            [
-                c.f_max_mm_per_min,
-                c.fuzzy_cycle_time_s,
-                c.fuzzy_contour_error_max_mm,
-                c.equal_time.feed_mm_per_min,
-                c.equal_time.contour_error_max_mm,
-                c.error_reduction,
-                c.equal_error.feed_mm_per_min,
-                c.equal_error.cycle_time_s,
-                c.time_reduction,
-            ]
-            .iter()
-            .map(|v| format!("{v}")),
-        );
-        w.write_record(&rec)?;
+        let et = c.equal_time.as_ref();
+        let ee = c.equal_error.as_ref();
+        w.write_record([
+            c.path.clone(),
+            c.method.to_string(),
+            format!("{}", c.f_max_mm_per_min),
+            c.baseline.to_string(),
+            opt(c.baseline_tolerance_mm),
+            format!("{}", c.fuzzy_cycle_time_s),
+            format!("{}", c.fuzzy_contour_error_max_mm),
+            format!("{}", c.baseline_cycle_time_s),
+            format!("{}", c.baseline_contour_error_max_mm),
+            knob(&c.equal_time),
+            opt(et.map(|m| m.feed_mm_per_min)),
+            opt(et.and_then(|m| m.tolerance_mm)),
+            opt(et.map(|m| m.contour_error_max_mm)),
+            opt(c.error_ratio),
+            opt(c.error_reduction()),
+            knob(&c.equal_error),
+            opt(ee.map(|m| m.feed_mm_per_min)),
+            opt(ee.and_then(|m| m.tolerance_mm)),
+            opt(ee.map(|m| m.cycle_time_s)),
+            opt(c.time_ratio),
+            opt(c.time_reduction()),
+        ])?;
     }
     Ok(String::from_utf8(w.into_inner()?)?)
 }
 
-/// Everything as JSON (machine label, configuration, rows, claims).
+/// The Pareto sweep as CSV.
+pub fn pareto_csv(points: &[ParetoPoint]) -> Result<String> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.write_record([
+        "path",
+        "method",
+        "tolerance_mm",
+        "f_max_mm_per_min",
+        "cycle_time_s",
+        "contour_error_max_mm",
+    ])?;
+    for p in points {
+        w.write_record([
+            p.path.clone(),
+            p.method.to_string(),
+            opt(p.tolerance_mm),
+            format!("{}", p.f_max_mm_per_min),
+            format!("{}", p.cycle_time_s),
+            format!("{}", p.contour_error_max_mm),
+        ])?;
+    }
+    Ok(String::from_utf8(w.into_inner()?)?)
+}
+
+/// Everything as JSON (machine label, configuration, rows, claims, the
+/// best baseline per path and feed, the Pareto sweep).
 pub fn json(report: &Report) -> Result<String> {
     let v = serde_json::json!({
         "machine": report.machine,
         "config": report.config,
         "rows": report.rows,
         "claims": report.claims,
+        "best_baseline": best(report),
+        "pareto": report.pareto,
     });
     Ok(serde_json::to_string_pretty(&v)?)
 }
@@ -220,6 +417,7 @@ mod tests {
             rows: vec![Row {
                 path: "p".into(),
                 method: "fuzzy",
+                tolerance_mm: None,
                 f_max_mm_per_min: 3000.0,
                 metrics: Metrics {
                     cycle_time_s: 1.5,
@@ -227,11 +425,12 @@ mod tests {
                 },
             }],
             claims: vec![],
+            pareto: vec![],
         };
         assert!(text(&report).contains("fuzzy"));
         let c = rows_csv(&report.rows).unwrap();
         assert_eq!(c.lines().count(), 2);
-        assert!(c.lines().nth(1).unwrap().starts_with("p,fuzzy,3000,1.5,"));
+        assert!(c.lines().nth(1).unwrap().starts_with("p,fuzzy,,3000,1.5,"));
         let j: serde_json::Value = serde_json::from_str(&json(&report).unwrap()).unwrap();
         assert_eq!(j["rows"][0]["cycle_time_s"], 1.5);
         assert_eq!(j["config"]["interpolation_period_ms"], 1.0);
