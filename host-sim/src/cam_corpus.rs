@@ -59,7 +59,7 @@ fn row(y: f64, x0: f64, x1: f64, tol: f64, min_mm: f64, max_mm: f64) -> Vec<[f64
                 })
                 .fold(0.0, f64::max);
             let len = ((xe - x).powi(2) + (zb - za).powi(2)).sqrt();
-            if dev <= tol || len <= min_mm {
+            if (dev <= tol && len <= max_mm) || len <= min_mm {
                 x = xe;
                 break;
             }
