@@ -300,7 +300,13 @@ fn label(r: &RunResult) -> String {
 pub fn kinematics_figure(path_name: &str, f_max: f64, runs: &[&RunResult]) -> Figure {
     let series = |f: &dyn Fn(&RunResult) -> Vec<(f64, f64)>| -> Vec<Series> {
         runs.iter()
-            .map(|r| (label(r), variant_colour(r.method, r.tolerance_mm), thin(&f(r))))
+            .map(|r| {
+                (
+                    label(r),
+                    variant_colour(r.method, r.tolerance_mm),
+                    thin(&f(r)),
+                )
+            })
             .collect()
     };
     let t = |k: usize, ts: f64| k as f64 * ts;
@@ -482,7 +488,10 @@ pub fn all(dir: &Path, prepared: &Prepared, runs: &[&RunResult], formats: Format
             formats,
         )?;
         // The baselines are on the kinematics and Pareto figures.
-        for r in same.iter().filter(|r| !matches!(r.method, Method::Planner | Method::GrblLike | Method::Blend)) {
+        for r in same
+            .iter()
+            .filter(|r| !matches!(r.method, Method::Planner | Method::GrblLike | Method::Blend))
+        {
             write_figure(
                 &dir.join(format!("{name}_error_{}_{f}", r.method.name())),
                 &error_figure(prepared, r),
@@ -567,7 +576,12 @@ where
 
 /// Max contour error (log scale) against cycle time, one curve per method
 /// over the maximum feeds of the sweep: left of and below is better.
-pub fn write_pareto(stem: &Path, title: &str, curves: &[ParetoCurve], formats: Formats) -> Result<()> {
+pub fn write_pareto(
+    stem: &Path,
+    title: &str,
+    curves: &[ParetoCurve],
+    formats: Formats,
+) -> Result<()> {
     ensure_font()?;
     let size = (1000, 700);
     for ext in formats.extensions() {

@@ -24,7 +24,11 @@ fn committed_programs_are_the_generated_ones_and_read_back() {
 
 #[test]
 fn the_surfacing_pass_has_thousands_of_short_3d_segments() {
-    let t = inputs::load(&dir().join("surface_ball_end.ngc"), &GcodeSettings::default()).unwrap();
+    let t = inputs::load(
+        &dir().join("surface_ball_end.ngc"),
+        &GcodeSettings::default(),
+    )
+    .unwrap();
     // Cutting segments (below the safe height, after the plunge).
     let segs: Vec<f64> = (1..t.len())
         .filter(|&i| t.points[i][2] < 0.0 && t.points[i - 1][2] < 0.0)
@@ -32,13 +36,17 @@ fn the_surfacing_pass_has_thousands_of_short_3d_segments() {
         .filter(|l| *l > 1e-9)
         .collect();
     assert!(segs.len() > 2000, "{}", segs.len());
-    let (lo, hi) = segs.iter().fold((f64::MAX, 0.0f64), |(a, b), l| (a.min(*l), b.max(*l)));
+    let (lo, hi) = segs
+        .iter()
+        .fold((f64::MAX, 0.0f64), |(a, b), l| (a.min(*l), b.max(*l)));
     // Along the rows 0.01-0.5 mm; the stepovers are 0.8 mm (and a little
     // more where z changes).
     assert!(lo >= 0.0099 && hi <= 0.81, "{lo} {hi}");
     let short = segs.iter().filter(|l| **l <= 0.5 + 1e-9).count();
     assert!(short + 25 >= segs.len(), "{short} of {}", segs.len());
     let zs: Vec<f64> = t.points.iter().map(|p| p[2]).filter(|z| *z < 0.0).collect();
-    let (zmin, zmax) = zs.iter().fold((f64::MAX, f64::MIN), |(a, b), z| (a.min(*z), b.max(*z)));
+    let (zmin, zmax) = zs
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), z| (a.min(*z), b.max(*z)));
     assert!(zmax - zmin > 2.0, "a 3-D surface: z {zmin}..{zmax}");
 }

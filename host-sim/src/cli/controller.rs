@@ -19,9 +19,16 @@ pub struct Args {
 /// `controller` subcommands.
 #[derive(clap::Subcommand, Debug)]
 pub enum Command {
-    /// Write Lin et al.'s controller as a MATLAB/Octave `.fis` file or as
-    /// IEC 61131-7 FCL (exact Q16.16 parameters).
+    /// Write a controller as a MATLAB/Octave `.fis` file or as IEC 61131-7
+    /// FCL (exact Q16.16 parameters). Centroids: Lin's and Cho's
+    /// controllers are Mamdani with a centroid (ours exact, the `.fis`
+    /// tools sample 101 points: Cho's 101-sample sum differs from any
+    /// integrating tool by about 6e-3 of the range); Njiri's likewise;
+    /// Nagata's are zero-order Sugeno (weighted average, no centroid).
     Export {
+        /// Which controller.
+        #[arg(long, value_enum, default_value_t = Which::Lin2021)]
+        controller: Which,
         /// `fis` (MATLAB, Octave fuzzy-logic-toolkit, fuzzylite) or `fcl`
         /// (IEC 61131-7; jFuzzyLogic, fuzzylite).
         #[arg(long, value_enum, default_value_t = Format::Fis)]
@@ -46,6 +53,49 @@ pub enum Command {
     },
 }
 
+/// The controllers of the papers (fuzzy-core's definitions).
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Which {
+    /// Lin, Lin & Wang 2021: curvature and its variation → feed fraction
+    /// (Mamdani, centroid).
+    Lin2021,
+    /// Njiri et al.: force errors and their changes → FRPO (Mamdani,
+    /// centroid).
+    Njiri,
+    /// Nagata et al.: CL segment length d(i) → feed (zero-order Sugeno).
+    NagataLength,
+    /// Nagata et al.: length increment Δd(i) → compensation (zero-order
+    /// Sugeno).
+    NagataIncrement,
+    /// Cho, Lee & Jeon: contour error and its change → feed change
+    /// (Mamdani, centroid; Table 3.1 completed).
+    Cho,
+}
+
+/// `def` in `format`.
+fn export_text<const NI: usize>(
+    def: &fuzzy_core::fuzzy::SystemDef<'_, NI>,
+    format: Format,
+) -> Result<String> {
+    let mut text = String::new();
+    match format {
+        Format::Fis => write_fis(&mut text, def)?,
+        Format::Fcl => write_fcl(&mut text, def)?,
+    }
+    Ok(text)
+}
+
+/// The text of controller `which` in `format`.
+pub fn export(which: Which, format: Format) -> Result<String> {
+    match which {
+        Which::Lin2021 => export_text(&SYSTEM, format),
+        Which::Njiri => export_text(&fuzzy_core::njiri::SYSTEM, format),
+        Which::NagataLength => export_text(&fuzzy_core::nagata::FEED_SYSTEM, format),
+        Which::NagataIncrement => export_text(&fuzzy_core::nagata::COMPENSATION_SYSTEM, format),
+        Which::Cho => export_text(&fuzzy_core::cho::SYSTEM, format),
+    }
+}
+
 /// Export format.
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
 pub enum Format {
@@ -66,10 +116,11 @@ pub enum Centroid {
 
 fn output(path: &Option<PathBuf>) -> Result<Box<dyn Write>> {
     Ok(match path {
-        Some(p) => {
-            Box::new(std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?)
-        }
-        None => Box::new(std::io::stdout().lock()),
+        // Buffered: one write per row to a file would be a system call each.
+        Some(p) => Box::new(std::io::BufWriter::new(
+            std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?,
+        )),
+        None => Box::new(std::io::BufWriter::new(std::io::stdout().lock())),
     })
 }
 
@@ -77,15 +128,14 @@ fn output(path: &Option<PathBuf>) -> Result<Box<dyn Write>> {
 pub fn run(args: &Args) -> Result<()> {
     match &args.command {
         Command::Export {
+            controller,
             format,
             output: path,
         } => {
-            let mut text = String::new();
-            match format {
-                Format::Fis => write_fis(&mut text, &SYSTEM)?,
-                Format::Fcl => write_fcl(&mut text, &SYSTEM)?,
-            }
-            output(path)?.write_all(text.as_bytes())?;
+            let text = export(*controller, *format)?;
+            let mut out = output(path)?;
+            out.write_all(text.as_bytes())?;
+            out.flush()?;
         }
         Command::Eval {
             input,
@@ -138,6 +188,7 @@ pub fn run(args: &Args) -> Result<()> {
                 };
                 writeln!(out, "{k},{d},{},{}", e.output.to_num::<f64>(), e.fired)?;
             }
+            out.flush()?;
             if clamped > 0 {
                 eprintln!(
                     "note: {clamped} inputs outside the universes were clamped (MATLAB evaluates them unclamped; compare inside)"

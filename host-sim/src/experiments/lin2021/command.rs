@@ -119,7 +119,11 @@ pub fn run(args: &Args) -> Result<()> {
     }
     check_feeds("--feeds", &args.feeds)?;
     check_feeds("--pareto-feeds", &args.pareto_feeds)?;
-    for t in args.grbl_deviations_mm.iter().chain(&args.blend_tolerances_mm) {
+    for t in args
+        .grbl_deviations_mm
+        .iter()
+        .chain(&args.blend_tolerances_mm)
+    {
         anyhow::ensure!(
             t.is_finite() && *t > 0.0 && *t <= 10.0,
             "tolerance {t} mm outside (0, 10]"
@@ -145,9 +149,9 @@ pub fn run(args: &Args) -> Result<()> {
         } else {
             args.pareto_feeds.clone()
         },
-        jobs: args.jobs.unwrap_or_else(|| {
-            std::thread::available_parallelism().map_or(1, |n| n.get())
-        }),
+        jobs: args
+            .jobs
+            .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())),
     };
     let steps = compare::batch_steps(paths.len(), &variants, args.feeds.len(), &opts);
     let bar = ProgressBar::new(steps);
@@ -216,7 +220,11 @@ fn pareto_plot(
         let colour = plots::variant_colour(method_of(p.method), p.tolerance_mm);
         match curves.iter_mut().find(|c| c.0 == label) {
             Some(c) => c.2.push((p.cycle_time_s, p.contour_error_max_mm)),
-            None => curves.push((label, colour, vec![(p.cycle_time_s, p.contour_error_max_mm)])),
+            None => curves.push((
+                label,
+                colour,
+                vec![(p.cycle_time_s, p.contour_error_max_mm)],
+            )),
         }
     }
     if curves.is_empty() {

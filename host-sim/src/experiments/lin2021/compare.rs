@@ -288,13 +288,15 @@ fn match_baseline(
         return Ok(None);
     };
     let by_tol = |x: f64| measure(prepared, baseline, f0, Some(x), config);
-    Ok(search(&by_tol, error, target, t0, 1e-5, 5.0)?.map(|(x, t, e)| Matched {
-        knob: Knob::Tolerance,
-        feed_mm_per_min: f0,
-        tolerance_mm: Some(x),
-        cycle_time_s: t,
-        contour_error_max_mm: e,
-    }))
+    Ok(
+        search(&by_tol, error, target, t0, 1e-5, 5.0)?.map(|(x, t, e)| Matched {
+            knob: Knob::Tolerance,
+            feed_mm_per_min: f0,
+            tolerance_mm: Some(x),
+            cycle_time_s: t,
+            contour_error_max_mm: e,
+        }),
+    )
 }
 
 /// Both figures of the fuzzy run `fuzzy` against `baseline`.
@@ -436,7 +438,11 @@ fn one_path(
                 metrics: r.metrics.clone(),
             });
             if opts.claims && has_claims(v.method) {
-                tick(&format!("{} {} vs constant {f}", p.path.name, v.method.name()));
+                tick(&format!(
+                    "{} {} vs constant {f}",
+                    p.path.name,
+                    v.method.name()
+                ));
                 claims.push(claim(p, &r, config)?);
                 if v.method == Method::FuzzyPlanner {
                     for b in &opts.baselines {
@@ -495,7 +501,15 @@ pub fn batch(
             s.spawn(|| loop {
                 let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                 let Some(p) = paths.get(i) else { break };
-                let r = one_path(p, variants_, feeds_mm_per_min, config, opts, tick, runs_done);
+                let r = one_path(
+                    p,
+                    variants_,
+                    feeds_mm_per_min,
+                    config,
+                    opts,
+                    tick,
+                    runs_done,
+                );
                 let failed = r.is_err();
                 if let Ok(mut slot) = results[i].lock() {
                     *slot = Some(r);
@@ -573,9 +587,15 @@ mod tests {
         let config = SimConfig::default();
         let fuzzy = simulate::run(&p, Method::Fuzzy, 3000.0, &config).unwrap();
         let c = claim(&p, &fuzzy, &config).unwrap();
-        let (et, ee) = (c.equal_time.clone().unwrap(), c.equal_error.clone().unwrap());
+        let (et, ee) = (
+            c.equal_time.clone().unwrap(),
+            c.equal_error.clone().unwrap(),
+        );
         assert_eq!(et.knob, Knob::Feed);
-        assert!((et.cycle_time_s - c.fuzzy_cycle_time_s).abs() < 0.01, "{c:?}");
+        assert!(
+            (et.cycle_time_s - c.fuzzy_cycle_time_s).abs() < 0.01,
+            "{c:?}"
+        );
         assert!(
             (ee.contour_error_max_mm / c.fuzzy_contour_error_max_mm - 1.0).abs() < 0.01,
             "{c:?}"
@@ -604,13 +624,20 @@ mod tests {
                 assert_eq!(r.metrics.contour_error_max_mm, m.contour_error_max_mm);
             }
             let et = c.equal_time.as_ref().expect("equal time");
-            assert!((et.cycle_time_s / c.fuzzy_cycle_time_s - 1.0).abs() < 0.02, "{c:?}");
+            assert!(
+                (et.cycle_time_s / c.fuzzy_cycle_time_s - 1.0).abs() < 0.02,
+                "{c:?}"
+            );
         }
     }
 
     #[test]
     fn variants_expand_the_tolerances() {
-        let v = variants(&[Method::Fuzzy, Method::GrblLike, Method::Blend], &[0.01, 0.002], &[]);
+        let v = variants(
+            &[Method::Fuzzy, Method::GrblLike, Method::Blend],
+            &[0.01, 0.002],
+            &[],
+        );
         assert_eq!(v.len(), 4);
         assert_eq!(v[2].tolerance_mm, Some(0.002));
         assert_eq!(v[3].label(&SimConfig::default()), "blend 0.01");

@@ -122,7 +122,17 @@ pub fn text(report: &Report) -> String {
         let _ = writeln!(
             s,
             "{:<12} {:>6} {:<17} {:>8} {:>8} | {:>9} {:>9} {:>7} | {:>9} {:>9} {:>7}",
-            "path", "Fmax", "baseline", "same F:s", "mm", "F (tol)", "err mm", "E ratio", "F (tol)", "time s", "T ratio"
+            "path",
+            "Fmax",
+            "baseline",
+            "same F:s",
+            "mm",
+            "F (tol)",
+            "err mm",
+            "E ratio",
+            "F (tol)",
+            "time s",
+            "T ratio"
         );
         for c in &baselines {
             let _ = writeln!(
@@ -159,7 +169,11 @@ fn matched_text(m: &Option<Matched>, error: bool, reduction: Option<f64>) -> Str
         (Some(m), Some(r)) => format!(
             "{:>9.0} {:>9.4} {:>8.1}",
             m.feed_mm_per_min,
-            if error { m.contour_error_max_mm } else { m.cycle_time_s },
+            if error {
+                m.contour_error_max_mm
+            } else {
+                m.cycle_time_s
+            },
             100.0 * r
         ),
         _ => format!("{:>9} {:>9} {:>8}", "-", "-", "-"),
@@ -176,7 +190,11 @@ fn ratio_text(m: &Option<Matched>, error: bool, ratio: Option<f64>) -> String {
             format!(
                 "{:>9} {:>9.4} {:>7.2}",
                 setting,
-                if error { m.contour_error_max_mm } else { m.cycle_time_s },
+                if error {
+                    m.contour_error_max_mm
+                } else {
+                    m.cycle_time_s
+                },
                 r
             )
         }
