@@ -20,11 +20,14 @@ pub struct Args {
 #[derive(clap::Subcommand, Debug)]
 pub enum Command {
     /// Write a controller as a MATLAB/Octave `.fis` file or as IEC 61131-7
-    /// FCL (exact Q16.16 parameters). Centroids: Lin's and Cho's
-    /// controllers are Mamdani with a centroid (ours exact, the `.fis`
-    /// tools sample 101 points: Cho's 101-sample sum differs from any
-    /// integrating tool by about 6e-3 of the range); Njiri's likewise;
-    /// Nagata's are zero-order Sugeno (weighted average, no centroid).
+    /// FCL (exact Q16.16 parameters; both load unchanged in Octave's
+    /// fuzzy-logic-toolkit and fuzzylite 6). Defuzzification as fuzzy-core
+    /// evaluates it: Lin's and Njiri's are Mamdani with the exact centroid
+    /// integral (closed form; MATLAB/Octave sample 101 points, fuzzylite
+    /// 100 slices: a few 1e-4 of the range apart); Cho's is Mamdani with
+    /// the 101-sample sum of eq. 11 (Gaussian terms: no closed form), so a
+    /// tool that integrates differs by about 6e-3 of the range; Nagata's
+    /// two are zero-order Sugeno (weighted average, no centroid).
     Export {
         /// Which controller.
         #[arg(long, value_enum, default_value_t = Which::Lin2021)]

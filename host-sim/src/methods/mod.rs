@@ -387,6 +387,15 @@ pub struct MethodSettings {
     pub blend: blend::BlendSettings,
 }
 
+/// The programmed feed of the block ending at each point: its F word capped
+/// by `f_max`, mm/min.
+fn programmed_feeds(path: &Toolpath, f_max_mm_per_min: f64) -> Vec<f64> {
+    path.feed_caps
+        .iter()
+        .map(|c| c.map_or(f_max_mm_per_min, |c| c.min(f_max_mm_per_min)))
+        .collect()
+}
+
 /// Schedule `path` with `method` at maximum feed `f_max_mm_per_min`;
 /// `ts_s` is the interpolation period (for the chord-error bound).
 pub fn schedule(
@@ -404,11 +413,12 @@ pub fn schedule(
             fuzzy_schedule(path, f_max_mm_per_min, &settings.fuzzy, true)
         }
         Method::FuzzyNoFilter => fuzzy_schedule(path, f_max_mm_per_min, &settings.fuzzy, false),
-        Method::Constant
-        | Method::ChordError
-        | Method::Planner
-        | Method::GrblLike
-        | Method::Blend => {
+        Method::GrblLike | Method::Blend => Ok(Schedule {
+            // Their planners need no curvature.
+            feeds_mm_per_min: programmed_feeds(path, f_max_mm_per_min),
+            ..Default::default()
+        }),
+        Method::Constant | Method::ChordError | Method::Planner => {
             // The curvature comes from fuzzy-core's scheduler (any settings).
             let probe = fuzzy_schedule(
                 path,
@@ -420,13 +430,8 @@ pub fn schedule(
                 false,
             )?;
             if method != Method::ChordError {
-                let feeds = path
-                    .feed_caps
-                    .iter()
-                    .map(|c| c.map_or(f_max_mm_per_min, |c| c.min(f_max_mm_per_min)))
-                    .collect();
                 return Ok(Schedule {
-                    feeds_mm_per_min: feeds,
+                    feeds_mm_per_min: programmed_feeds(path, f_max_mm_per_min),
                     ..probe
                 });
             }

@@ -62,7 +62,7 @@ pub struct Args {
     pub no_claims: bool,
     /// Maximum feeds of the Pareto sweep, mm/min (the planner methods stop
     /// at `[planner] feed_max_mm_per_min`, 5000 by default).
-    #[arg(long, value_delimiter = ',', default_values_t = [1000.0, 1500.0, 2000.0, 3000.0, 4000.0, 5000.0])]
+    #[arg(long, value_delimiter = ',', default_values_t = [1500.0, 2000.0, 3000.0, 4000.0, 5000.0])]
     pub pareto_feeds: Vec<f64>,
     /// Skip the Pareto sweep.
     #[arg(long)]
