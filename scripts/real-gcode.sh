@@ -8,8 +8,9 @@
 #     /work/.mirror/LinuxCNC+linuxcnc/repo).
 # Programs host-sim refuses (expressions, O-words, canned cycles, ...) or
 # with fewer than 100 points are listed and skipped. Without either source
-# it says so and exits 0. Extra arguments go to `host-sim compare`, e.g.
-#   ./scripts/real-gcode.sh --out-dir results/real --no-pareto
+# it says so and exits 0. Results go to results/real (or $OUT_DIR); extra
+# arguments go to `host-sim compare`, e.g.
+#   OUT_DIR=/tmp/real ./scripts/real-gcode.sh --no-pareto --no-plots
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build --release -q -p host-sim
@@ -42,4 +43,4 @@ if [ ${#args[@]} -eq 0 ]; then
     echo "no program host-sim reads: nothing to compare"
     exit 0
 fi
-exec "$bin" compare "${args[@]}" --out-dir results/real "$@"
+exec "$bin" compare "${args[@]}" --out-dir "${OUT_DIR:-results/real}" "$@"

@@ -7,6 +7,8 @@
 //! ```text
 //! toolpath ─► method (constant | chord-error | fuzzy | fuzzy-no-filter) ─► feed per block
 //!          ─► interpolation every Ts ─► machine ─► actual motion ─► metrics, plots
+//!          └► (fuzzy-planner | planner | grbl-like | blend) ─► positions every Ts
+//!             ─► the machine's after-interpolation stage ─► actual motion
 //! ```
 //!
 //! Every subcommand is a module with `Args` (clap) and `run`: the papers'
