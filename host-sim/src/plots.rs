@@ -503,11 +503,14 @@ pub fn all(dir: &Path, prepared: &Prepared, runs: &[&RunResult], formats: Format
         .iter()
         .find(|r| matches!(r.method, Method::Fuzzy | Method::FuzzyNoFilter))
         .unwrap_or(&runs[0]);
-    write_figure(
-        &dir.join(format!("{name}_curvature")),
-        &curvature_figure(name, fuzzy),
-        formats,
-    )?;
+    // grbl-like and blend compute no curvature.
+    if !fuzzy.schedule.curvature_per_mm.is_empty() {
+        write_figure(
+            &dir.join(format!("{name}_curvature")),
+            &curvature_figure(name, fuzzy),
+            formats,
+        )?;
+    }
     Ok(())
 }
 
