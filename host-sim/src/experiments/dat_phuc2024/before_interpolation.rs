@@ -25,7 +25,7 @@
 //!   window can reach).
 //!
 //! Then the interpolator samples the profile and the acc/dec after
-//! interpolation (parameter 1769, [`super::accdec`]) acts per axis.
+//! interpolation (parameter 1769, [`crate::machine::accdec`]) acts per axis.
 
 use crate::interpolation::{Polyline, SpeedProfile};
 use crate::toolpath::distance;

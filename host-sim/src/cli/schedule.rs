@@ -8,7 +8,7 @@ use fuzzy_core::lin2021::{Lin2021Controller, VariationScale, CONTROLLER};
 use fuzzy_core::scheduler::{Scheduler, SchedulerConfig};
 use fuzzy_core::units::{CurvaturePerMm, FeedMmPerMin};
 
-use host_sim::path_csv;
+use crate::path_csv;
 
 /// Arguments of `schedule`.
 #[derive(clap::Args, Debug)]

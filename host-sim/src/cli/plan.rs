@@ -8,13 +8,13 @@ use std::path::Path;
 
 use anyhow::{Context, Result};
 
-use host_sim::config::SimConfig;
-use host_sim::methods::{self, Method};
-use host_sim::planner::{self, figures, plot, PlannedRun};
-use host_sim::plots;
-use host_sim::simulate::Prepared;
+use crate::config::SimConfig;
+use crate::methods::{self, Method};
+use crate::planner::{self, figures, plot, PlannedRun};
+use crate::plots;
+use crate::simulate::Prepared;
 
-use crate::common::{MachineArgs, OutputFiles};
+use crate::cli::{MachineArgs, OutputFiles};
 
 /// Where the planner's upper bounds come from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -63,7 +63,7 @@ pub fn run(args: &Args) -> Result<()> {
     // Everything is computed before anything is written.
     let mut runs = Vec::new();
     for input in &args.inputs {
-        let prepared = crate::simulate_cmd::load(input, &config)?;
+        let prepared = crate::cli::simulate::load(input, &config)?;
         runs.push(plan_one(&prepared, args.feeds, f_max, &config)?);
     }
     let dir = &args.out.out_dir;

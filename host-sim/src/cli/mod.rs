@@ -1,14 +1,34 @@
-//! Options shared by the simulation subcommands.
+//! The subcommands that belong to no paper, one module each with `Args`
+//! (clap) and `run` (the papers' are in [`crate::experiments`], same
+//! pattern), and the options they share ([`MachineArgs`], [`OutputFiles`]).
+//!
+//! | command | module |
+//! |---|---|
+//! | `simulate` | [`simulate`] |
+//! | `plan` | [`plan`] |
+//! | `schedule` | [`schedule`] |
+//! | `controller export\|eval` | [`controller`] |
+//! | `shape` | [`shape`] |
+//! | `toolpath` | [`toolpath`] |
+//! | `config` | [`config`] |
+
+pub mod config;
+pub mod controller;
+pub mod plan;
+pub mod schedule;
+pub mod shape;
+pub mod simulate;
+pub mod toolpath;
 
 use std::path::PathBuf;
 
 use anyhow::Result;
 
-use host_sim::config::SimConfig;
-use host_sim::machine::fanuc::FanucMode;
-use host_sim::machine::MachineConfig;
-use host_sim::methods::VariationNormalisation;
-use host_sim::plots::Formats;
+use crate::config::SimConfig;
+use crate::experiments::dat_phuc2024::fanuc::FanucMode;
+use crate::machine::MachineConfig;
+use crate::methods::VariationNormalisation;
+use crate::plots::Formats;
 
 /// Which machine to simulate (overrides the configuration file's).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -68,15 +88,17 @@ impl MachineArgs {
                 (MachineChoice::ServoXy, MachineConfig::ServoXy(_)) => c.machine.clone(),
                 (MachineChoice::ServoXy, _) => MachineConfig::ServoXy(Default::default()),
                 (mode, MachineConfig::Fanuc(f)) => {
-                    MachineConfig::Fanuc(host_sim::machine::fanuc::FanucConfig {
+                    MachineConfig::Fanuc(crate::experiments::dat_phuc2024::fanuc::FanucConfig {
                         mode: fanuc_mode(mode),
                         ..f.clone()
                     })
                 }
-                (mode, _) => MachineConfig::Fanuc(host_sim::machine::fanuc::FanucConfig {
-                    mode: fanuc_mode(mode),
-                    ..Default::default()
-                }),
+                (mode, _) => {
+                    MachineConfig::Fanuc(crate::experiments::dat_phuc2024::fanuc::FanucConfig {
+                        mode: fanuc_mode(mode),
+                        ..Default::default()
+                    })
+                }
             };
         }
         if let Some(t) = self.interpolation_period_ms {

@@ -8,12 +8,30 @@ use fuzzy_core::fuzzy::export::{write_fcl, write_fis};
 use fuzzy_core::lin2021::{CONTROLLER, SYSTEM};
 use fuzzy_core::units::Fx;
 
+/// Arguments of `controller`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
 /// `controller` subcommands.
 #[derive(clap::Subcommand, Debug)]
 pub enum Command {
-    /// Write Lin et al.'s controller as a MATLAB/Octave `.fis` file or as
-    /// IEC 61131-7 FCL (exact Q16.16 parameters).
+    /// Write a controller as a MATLAB/Octave `.fis` file or as IEC 61131-7
+    /// FCL (exact Q16.16 parameters; both load unchanged in Octave's
+    /// fuzzy-logic-toolkit and fuzzylite 6). Defuzzification as fuzzy-core
+    /// evaluates it: Lin's and Njiri's are Mamdani with the exact centroid
+    /// integral (closed form; MATLAB/Octave sample 101 points, fuzzylite
+    /// 100 slices: a few 1e-4 of the range apart); Cho's is Mamdani with
+    /// the 101-sample sum of eq. 11 (Gaussian terms: no closed form), so a
+    /// tool that integrates differs by about 6e-3 of the range; Nagata's
+    /// two are zero-order Sugeno (weighted average, no centroid).
     Export {
+        /// Which controller.
+        #[arg(long, value_enum, default_value_t = Which::Lin2021)]
+        controller: Which,
         /// `fis` (MATLAB, Octave fuzzy-logic-toolkit, fuzzylite) or `fcl`
         /// (IEC 61131-7; jFuzzyLogic, fuzzylite).
         #[arg(long, value_enum, default_value_t = Format::Fis)]
@@ -38,6 +56,49 @@ pub enum Command {
     },
 }
 
+/// The controllers of the papers (fuzzy-core's definitions).
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Which {
+    /// Lin, Lin & Wang 2021: curvature and its variation → feed fraction
+    /// (Mamdani, centroid).
+    Lin2021,
+    /// Njiri et al.: force errors and their changes → FRPO (Mamdani,
+    /// centroid).
+    Njiri,
+    /// Nagata et al.: CL segment length d(i) → feed (zero-order Sugeno).
+    NagataLength,
+    /// Nagata et al.: length increment Δd(i) → compensation (zero-order
+    /// Sugeno).
+    NagataIncrement,
+    /// Cho, Lee & Jeon: contour error and its change → feed change
+    /// (Mamdani, centroid; Table 3.1 completed).
+    Cho,
+}
+
+/// `def` in `format`.
+fn export_text<const NI: usize>(
+    def: &fuzzy_core::fuzzy::SystemDef<'_, NI>,
+    format: Format,
+) -> Result<String> {
+    let mut text = String::new();
+    match format {
+        Format::Fis => write_fis(&mut text, def)?,
+        Format::Fcl => write_fcl(&mut text, def)?,
+    }
+    Ok(text)
+}
+
+/// The text of controller `which` in `format`.
+pub fn export(which: Which, format: Format) -> Result<String> {
+    match which {
+        Which::Lin2021 => export_text(&SYSTEM, format),
+        Which::Njiri => export_text(&fuzzy_core::njiri::SYSTEM, format),
+        Which::NagataLength => export_text(&fuzzy_core::nagata::FEED_SYSTEM, format),
+        Which::NagataIncrement => export_text(&fuzzy_core::nagata::COMPENSATION_SYSTEM, format),
+        Which::Cho => export_text(&fuzzy_core::cho::SYSTEM, format),
+    }
+}
+
 /// Export format.
 #[derive(clap::ValueEnum, Clone, Copy, Debug)]
 pub enum Format {
@@ -58,26 +119,26 @@ pub enum Centroid {
 
 fn output(path: &Option<PathBuf>) -> Result<Box<dyn Write>> {
     Ok(match path {
-        Some(p) => {
-            Box::new(std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?)
-        }
-        None => Box::new(std::io::stdout().lock()),
+        // Buffered: one write per row to a file would be a system call each.
+        Some(p) => Box::new(std::io::BufWriter::new(
+            std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?,
+        )),
+        None => Box::new(std::io::BufWriter::new(std::io::stdout().lock())),
     })
 }
 
 /// Run a `controller` subcommand.
-pub fn run(cmd: &Command) -> Result<()> {
-    match cmd {
+pub fn run(args: &Args) -> Result<()> {
+    match &args.command {
         Command::Export {
+            controller,
             format,
             output: path,
         } => {
-            let mut text = String::new();
-            match format {
-                Format::Fis => write_fis(&mut text, &SYSTEM)?,
-                Format::Fcl => write_fcl(&mut text, &SYSTEM)?,
-            }
-            output(path)?.write_all(text.as_bytes())?;
+            let text = export(*controller, *format)?;
+            let mut out = output(path)?;
+            out.write_all(text.as_bytes())?;
+            out.flush()?;
         }
         Command::Eval {
             input,
@@ -130,6 +191,7 @@ pub fn run(cmd: &Command) -> Result<()> {
                 };
                 writeln!(out, "{k},{d},{},{}", e.output.to_num::<f64>(), e.fired)?;
             }
+            out.flush()?;
             if clamped > 0 {
                 eprintln!(
                     "note: {clamped} inputs outside the universes were clamped (MATLAB evaluates them unclamped; compare inside)"

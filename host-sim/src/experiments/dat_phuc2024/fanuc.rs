@@ -14,15 +14,15 @@
 //!
 //! Servo lag is not modelled: the paper attributes the path error to acc/dec
 //! and matches its measurements within the servo's undershoot (Figures
-//! 5-8). The X-Y servo model ([`super::servo_xy`]) is the machine with servo
+//! 5-8). The X-Y servo model ([`crate::experiments::cho::servo_xy`]) is the machine with servo
 //! dynamics.
 
 use serde::{Deserialize, Serialize};
 
-use super::accdec::{self, AccDecKind};
 use super::before_interpolation::{self, Limits};
-use super::Motion;
 use crate::interpolation::{interpolate, Polyline, Reference, SpeedProfile};
+use crate::machine::accdec::{self, AccDecKind};
+use crate::machine::Motion;
 
 /// Whether FANUC's high-accuracy contour control is on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]

@@ -12,7 +12,7 @@
 //! | eq. 1: `a(i) = 360·(y(i) − y_min)/y_length` | [`rotary_angles`] |
 //! | section 3: `d(i)`, `Δd(i)`, eq. 2-7 | [`feeds`] via [`fuzzy_core::nagata::FeedGenerator`] |
 //! | section 4: 600 mm/min forced on every pick-feed motion | [`PostConfig::pick_feed_mm_per_min`] |
-//! | section 4: machining time vs constant 600 mm/min (−20 %) | `host-sim nagata` ([`cli`]) on the FANUC-like machine model |
+//! | section 4: machining time vs constant 600 mm/min (−20 %) | `host-sim nagata` ([`command`]) on the FANUC-like machine model |
 //!
 //! # Choices where the paper is silent
 //!
@@ -38,7 +38,7 @@
 //!   decimals (0.1 µm), angles with 4 (0.0001°, finer than the rotary
 //!   unit's 0.0027°), feeds with 1.
 
-pub mod cli;
+pub mod command;
 pub mod relief;
 
 use std::fmt::Write as _;

@@ -6,10 +6,10 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 
-use host_sim::config::SimConfig;
-use host_sim::corner_comp::{self, CornerSettings};
-use host_sim::machine::fanuc::{FanucConfig, FanucMode};
-use host_sim::machine::MachineConfig;
+use crate::config::SimConfig;
+use crate::experiments::dat_phuc2024::corner_comp::{self, CornerSettings};
+use crate::experiments::dat_phuc2024::fanuc::{FanucConfig, FanucMode};
+use crate::machine::MachineConfig;
 
 /// Arguments of `corner`.
 #[derive(clap::Args, Debug)]
@@ -101,7 +101,7 @@ pub fn run(args: &Args) -> Result<()> {
         ));
     }
     for p in &args.paths {
-        let t = host_sim::inputs::load(p, &sim.gcode)?;
+        let t = crate::inputs::load(p, &sim.gcode)?;
         let feeds = t.feed_caps.iter().map(|c| c.unwrap_or(args.feed)).collect();
         cases.push((t.name.clone(), t.points.clone(), feeds));
     }

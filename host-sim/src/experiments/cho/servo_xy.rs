@@ -44,9 +44,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::accdec::{self, AccDecKind};
-use super::Motion;
 use crate::interpolation::{interpolate, Polyline, SpeedProfile};
+use crate::machine::accdec::{self, AccDecKind};
+use crate::machine::Motion;
 
 /// One axis (Tables 4.1-4.2).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -7,13 +7,13 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 
-use host_sim::inputs;
-use host_sim::methods::Method;
-use host_sim::plots;
-use host_sim::shapes::Shape;
-use host_sim::simulate::{self, Prepared};
+use crate::inputs;
+use crate::methods::Method;
+use crate::plots;
+use crate::shapes::Shape;
+use crate::simulate::{self, Prepared};
 
-use crate::common::{MachineArgs, OutputFiles};
+use crate::cli::{MachineArgs, OutputFiles};
 
 /// Arguments of `simulate`.
 #[derive(clap::Args, Debug)]
@@ -39,7 +39,7 @@ pub struct Args {
 }
 
 /// A built-in shape or a file.
-pub fn load(input: &str, config: &host_sim::config::SimConfig) -> Result<Prepared> {
+pub fn load(input: &str, config: &crate::config::SimConfig) -> Result<Prepared> {
     let path = match <Shape as clap::ValueEnum>::from_str(input, true) {
         Ok(s) => s.toolpath()?,
         Err(_) => inputs::load(&PathBuf::from(input), &config.gcode)?,

@@ -58,7 +58,7 @@ use anyhow::{bail, Result};
 use serde::Serialize;
 
 use crate::contour_error::{brute_force_distance, PathIndex};
-use crate::machine::fanuc::FanucMode;
+use crate::experiments::dat_phuc2024::fanuc::FanucMode;
 use crate::machine::{MachineConfig, Motion};
 use crate::toolpath::distance;
 
@@ -182,7 +182,7 @@ pub fn corner_window_s(machine: &MachineConfig) -> f64 {
 /// `points` with every block longer than `max_mm` split into equal
 /// collinear pieces at the same feed. The high-accuracy model lowers a
 /// limit over whole blocks within reach of a slower one
-/// ([`crate::machine::before_interpolation`]), so a corner on a long block
+/// ([`crate::experiments::dat_phuc2024::before_interpolation`]), so a corner on a long block
 /// would slow the whole block; splitting makes it act within `max_mm` of
 /// the corner. The commanded geometry is unchanged.
 pub fn refine(points: &[[f64; 3]], feeds: &[f64], max_mm: f64) -> (Vec<[f64; 3]>, Vec<f64>) {

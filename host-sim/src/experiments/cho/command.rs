@@ -5,9 +5,9 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 
-use host_sim::cho::{self, ChoSettings, Contour};
-use host_sim::config::SimConfig;
-use host_sim::machine::MachineConfig;
+use super::feed_control::{self as cho, ChoSettings, Contour};
+use crate::config::SimConfig;
+use crate::machine::MachineConfig;
 
 /// Arguments of `cho`.
 #[derive(clap::Args, Debug)]

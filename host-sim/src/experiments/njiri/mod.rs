@@ -31,7 +31,7 @@
 //! Not here: the firmware side (the force arriving over the link and the
 //! override applied by the firmware's motion loop), which is the firmware's.
 
-pub mod cli;
+pub mod command;
 pub mod force_model;
 
 use anyhow::{ensure, Result};

@@ -8,14 +8,25 @@
 //! | `chord-error` | curvature pre-schedule in the spirit of Yeh & Hsu and Luan et al. (Lin et al. refs. 9-10): `v ≤ (2/Ts)·√(2δ/κ − δ²)`, `v ≤ √(A/κ)`, then acceleration-limited passes |
 //! | `fuzzy` | Lin et al.'s scheduler (fuzzy-core), with the average filter |
 //! | `fuzzy-no-filter` | the same without the average filter (AVG = 1) |
-//! | `fuzzy-planner` | the `fuzzy` feeds as upper bounds of fuzzy-core's velocity planner (issue 6), whose tick stream goes to the machine ([`crate::planner`]) |
+//! | `fuzzy-planner` | the `fuzzy` feeds as upper bounds of fuzzy-core's velocity planner, whose tick stream goes to the machine ([`crate::planner`]) |
+//! | `planner` | the programmed feeds (as `constant`) through the same planner, same limits: what the planner gives without the fuzzy stage |
+//! | `grbl-like` | Grbl 1.1's planner: junction deviation, trapezoids, 16-block lookahead ([`grbl_like`]) |
+//! | `blend` | LinuxCNC's `G64 P` blending: corners replaced by arcs within a tolerance, trapezoids over a 50-segment lookahead ([`blend`]) |
 //!
 //! Every curvature here is fuzzy-core's (eq. 4-9, the scheduler's own
 //! output): no second implementation.
 //!
-//! `fuzzy-planner`'s schedule here is the `fuzzy` one (the planner's upper
-//! bounds); [`crate::simulate::run`] plans it and hands the machine the
-//! planner's positions instead of interpolating the feeds.
+//! The last four methods make their own motion every interpolation period
+//! (a tick stream) instead of a feed per block for host-sim's interpolator:
+//! their schedule here is the planner's upper bounds (`fuzzy` feeds for
+//! `fuzzy-planner`, the programmed feeds for the others);
+//! [`crate::simulate::run`] hands the machine their positions. The three
+//! baselines plan with the machine's limits of `[planner]` (per-axis
+//! acceleration and speed); Grbl and LinuxCNC's trapezoidal planner have
+//! no jerk limit, fuzzy-core's planner has one.
+
+pub mod blend;
+pub mod grbl_like;
 
 use anyhow::{bail, Result};
 use fuzzy_core::lin2021::{VariationScale, CONTROLLER};
@@ -41,16 +52,26 @@ pub enum Method {
     /// acceleration- and jerk-limited velocity planner (`[planner]` in the
     /// configuration), whose positions go to the machine.
     FuzzyPlanner,
+    /// The programmed feeds (F words capped by the maximum feed) through
+    /// the same planner, without the fuzzy stage.
+    Planner,
+    /// Grbl 1.1's planner (`[methods.grbl_like]`).
+    GrblLike,
+    /// LinuxCNC's `G64 P` blending planner (`[methods.blend]`).
+    Blend,
 }
 
 impl Method {
     /// Every method, in the table's order.
-    pub const ALL: [Method; 5] = [
+    pub const ALL: [Method; 8] = [
         Method::Constant,
         Method::ChordError,
         Method::Fuzzy,
         Method::FuzzyNoFilter,
         Method::FuzzyPlanner,
+        Method::Planner,
+        Method::GrblLike,
+        Method::Blend,
     ];
 
     /// Name as on the command line.
@@ -61,7 +82,71 @@ impl Method {
             Method::Fuzzy => "fuzzy",
             Method::FuzzyNoFilter => "fuzzy-no-filter",
             Method::FuzzyPlanner => "fuzzy-planner",
+            Method::Planner => "planner",
+            Method::GrblLike => "grbl-like",
+            Method::Blend => "blend",
         }
+    }
+
+    /// Whether the method makes its own motion every interpolation period
+    /// (rather than a feed per block).
+    pub fn is_tick_stream(self) -> bool {
+        matches!(
+            self,
+            Method::FuzzyPlanner | Method::Planner | Method::GrblLike | Method::Blend
+        )
+    }
+
+    /// The tolerance the method is tuned by, if any: Grbl's junction
+    /// deviation, LinuxCNC's P.
+    pub fn tolerance_mm(self, settings: &MethodSettings) -> Option<f64> {
+        match self {
+            Method::GrblLike => Some(settings.grbl_like.junction_deviation_mm),
+            Method::Blend => Some(settings.blend.tolerance_mm),
+            _ => None,
+        }
+    }
+
+    /// `settings` with the method's tolerance set to `tolerance_mm` (no
+    /// change for a method without one).
+    pub fn with_tolerance(self, settings: &MethodSettings, tolerance_mm: f64) -> MethodSettings {
+        let mut s = settings.clone();
+        match self {
+            Method::GrblLike => s.grbl_like.junction_deviation_mm = tolerance_mm,
+            Method::Blend => s.blend.tolerance_mm = tolerance_mm,
+            _ => {}
+        }
+        s
+    }
+}
+
+/// Per-axis limits the tick-stream baselines plan with (the machine's, from
+/// `[planner]`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AxisLimits {
+    /// Acceleration of X, Y, Z, mm/s².
+    pub accel_mm_per_s2: [f64; 3],
+    /// Speed of X, Y, Z, mm/s.
+    pub speed_mm_per_s: [f64; 3],
+}
+
+impl AxisLimits {
+    /// The limits of fuzzy-core's planner settings.
+    pub fn of(p: &crate::planner::PlannerSettings) -> Self {
+        AxisLimits {
+            accel_mm_per_s2: p.axis_accel_max_mm_per_s2.map(f64::from),
+            speed_mm_per_s: p.axis_speed_max_mm_per_min.map(|v| v / 60.0),
+        }
+    }
+
+    /// The largest value along the unit vector `unit` that keeps every axis
+    /// within `max` (Grbl's `limit_value_by_axis_maximum`: `min_i
+    /// max_i/|u_i|`).
+    pub fn along(max: [f64; 3], unit: [f64; 3]) -> f64 {
+        (0..3)
+            .filter(|&i| unit[i].abs() > 1e-12)
+            .map(|i| max[i] / unit[i].abs())
+            .fold(f64::MAX, f64::min)
     }
 }
 
@@ -296,6 +381,19 @@ pub struct MethodSettings {
     pub fuzzy: FuzzySettings,
     /// The chord-error pre-schedule.
     pub chord_error: ChordErrorSettings,
+    /// Grbl 1.1's planner.
+    pub grbl_like: grbl_like::GrblSettings,
+    /// LinuxCNC's blending planner.
+    pub blend: blend::BlendSettings,
+}
+
+/// The programmed feed of the block ending at each point: its F word capped
+/// by `f_max`, mm/min.
+fn programmed_feeds(path: &Toolpath, f_max_mm_per_min: f64) -> Vec<f64> {
+    path.feed_caps
+        .iter()
+        .map(|c| c.map_or(f_max_mm_per_min, |c| c.min(f_max_mm_per_min)))
+        .collect()
 }
 
 /// Schedule `path` with `method` at maximum feed `f_max_mm_per_min`;
@@ -315,7 +413,12 @@ pub fn schedule(
             fuzzy_schedule(path, f_max_mm_per_min, &settings.fuzzy, true)
         }
         Method::FuzzyNoFilter => fuzzy_schedule(path, f_max_mm_per_min, &settings.fuzzy, false),
-        Method::Constant | Method::ChordError => {
+        Method::GrblLike | Method::Blend => Ok(Schedule {
+            // Their planners need no curvature.
+            feeds_mm_per_min: programmed_feeds(path, f_max_mm_per_min),
+            ..Default::default()
+        }),
+        Method::Constant | Method::ChordError | Method::Planner => {
             // The curvature comes from fuzzy-core's scheduler (any settings).
             let probe = fuzzy_schedule(
                 path,
@@ -326,14 +429,9 @@ pub fn schedule(
                 },
                 false,
             )?;
-            if method == Method::Constant {
-                let feeds = path
-                    .feed_caps
-                    .iter()
-                    .map(|c| c.map_or(f_max_mm_per_min, |c| c.min(f_max_mm_per_min)))
-                    .collect();
+            if method != Method::ChordError {
                 return Ok(Schedule {
-                    feeds_mm_per_min: feeds,
+                    feeds_mm_per_min: programmed_feeds(path, f_max_mm_per_min),
                     ..probe
                 });
             }

@@ -68,9 +68,9 @@ use fuzzy_core::cho::{ChoController, FeedLaw, FeedLawConfig, CONTROLLER, CONTROL
 use fuzzy_core::units::{FeedMmPerMin, Point3Mm};
 use serde::Serialize;
 
+use super::servo_xy::{ServoXyConfig, ServoXyState};
 use crate::contour_error::PathIndex;
 use crate::interpolation::Polyline;
-use crate::machine::servo_xy::{ServoXyConfig, ServoXyState};
 
 /// Window capacity of the online estimator (vertices).
 pub const WINDOW: usize = 128;
