@@ -237,9 +237,11 @@ fn parse_action(s: &str) -> Result<Action, String> {
                 Action::Override(p)
             }
         }
-        _ => return Err(format!(
+        _ => {
+            return Err(format!(
             "{s:?}: unknown action (hold, resume, toggle, faster, slower, override N, stop, estop)"
-        )),
+        ))
+        }
     })
 }
 

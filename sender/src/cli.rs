@@ -63,8 +63,8 @@ pub struct LinkArgs {
     #[arg(long, global = true)]
     pub unix: Option<PathBuf>,
     /// The controller simulated on the host (the firmware's code, no
-    /// board), at this many times real time.
-    #[arg(long, global = true, num_args = 0..=1, default_missing_value = "1", value_name = "SPEED")]
+    /// board), at this many times real time (`--sim` or `--sim=SPEED`).
+    #[arg(long, global = true, num_args = 0..=1, require_equals = true, default_missing_value = "1", value_name = "SPEED")]
     pub sim: Option<f64>,
     /// Baud rate of the serial port.
     #[arg(long, global = true, default_value_t = DEFAULT_BAUD)]

@@ -11,7 +11,8 @@ use std::io::{self, Read, Write};
 use std::net::Shutdown;
 use std::os::unix::net::UnixStream;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{mpsc, Arc};
+use std::sync::mpsc::{self, Receiver, Sender};
+use std::sync::{Arc, Mutex};
 use std::thread::{self, JoinHandle};
 use std::time::{Duration, Instant};
 
@@ -33,15 +34,39 @@ pub struct SimReport {
 /// The simulated controller's thread.
 pub struct SimHandle {
     stop: Arc<AtomicBool>,
-    device_end: UnixStream,
+    /// The device's clock may start.
+    go: Arc<AtomicBool>,
+    streams: Sender<UnixStream>,
+    /// The device's end of the current stream.
+    current: Mutex<Option<UnixStream>>,
     thread: Option<JoinHandle<SimReport>>,
 }
 
 impl SimHandle {
+    /// A new connection to the running device (the previous one is
+    /// dropped, as when a host program exits and another starts): the
+    /// host's end.
+    pub fn connect(&self) -> io::Result<UnixStream> {
+        let (host, device) = UnixStream::pair()?;
+        device.set_nonblocking(true)?;
+        let keep = device.try_clone()?;
+        self.streams
+            .send(device)
+            .map_err(|_| io::Error::other("the simulated controller stopped"))?;
+        if let Ok(mut c) = self.current.lock() {
+            *c = Some(keep);
+        }
+        Ok(host)
+    }
+
     /// Cut the link (as a pulled cable): the host sees its stream close,
     /// the device keeps running.
     pub fn cut(&self) {
-        let _ = self.device_end.shutdown(Shutdown::Both);
+        if let Ok(c) = self.current.lock() {
+            if let Some(s) = c.as_ref() {
+                let _ = s.shutdown(Shutdown::Both);
+            }
+        }
     }
 
     /// Stop the device and report what it did.
@@ -63,19 +88,36 @@ impl Drop for SimHandle {
     }
 }
 
-/// Start a simulated controller at `speed` × real time; the host's end of
-/// its stream.
+/// Start a simulated controller at `speed` × real time, fresh from reset
+/// (its hello goes to the first connection); the host's end of its
+/// stream.
 pub fn spawn(speed: f64) -> io::Result<(UnixStream, SimHandle)> {
+    let h = start_held(speed)?;
+    let s = h.connect()?;
+    // Nothing ticks before the first connection is in.
+    h.go.store(true, Ordering::Relaxed);
+    Ok((s, h))
+}
+
+/// Start a simulated controller at `speed` × real time, not connected
+/// ([`SimHandle::connect`]).
+pub fn start(speed: f64) -> io::Result<SimHandle> {
+    let h = start_held(speed)?;
+    h.go.store(true, Ordering::Relaxed);
+    Ok(h)
+}
+
+fn start_held(speed: f64) -> io::Result<SimHandle> {
     if !(speed.is_finite() && speed > 0.0 && speed <= 1000.0) {
         return Err(io::Error::other(format!(
             "simulation speed {speed}: must be in (0, 1000]"
         )));
     }
-    let (host, device) = UnixStream::pair()?;
-    device.set_nonblocking(true)?;
-    let dev_io = device.try_clone()?;
+    let (streams, rx) = mpsc::channel();
     let stop = Arc::new(AtomicBool::new(false));
     let stop2 = stop.clone();
+    let go = Arc::new(AtomicBool::new(false));
+    let go2 = go.clone();
     // The device holds leaked queues with lifetimes tied to it: it is
     // built on its own thread, and only its report crosses back.
     let (ready_tx, ready_rx) = mpsc::channel();
@@ -84,7 +126,10 @@ pub fn spawn(speed: f64) -> io::Result<(UnixStream, SimHandle)> {
         .spawn(move || match VirtualDevice::new() {
             Ok(d) => {
                 let _ = ready_tx.send(Ok(()));
-                run(d, dev_io, speed, &stop2)
+                while !go2.load(Ordering::Relaxed) && !stop2.load(Ordering::Relaxed) {
+                    thread::sleep(Duration::from_micros(100));
+                }
+                run(d, rx, speed, &stop2)
             }
             Err(e) => {
                 let _ = ready_tx.send(Err(format!("{e:?}")));
@@ -95,14 +140,13 @@ pub fn spawn(speed: f64) -> io::Result<(UnixStream, SimHandle)> {
         .recv()
         .map_err(|_| io::Error::other("the simulated controller did not start"))?
         .map_err(|e| io::Error::other(format!("the simulated controller did not start: {e}")))?;
-    Ok((
-        host,
-        SimHandle {
-            stop,
-            device_end: device,
-            thread: Some(thread),
-        },
-    ))
+    Ok(SimHandle {
+        stop,
+        go,
+        streams,
+        current: Mutex::new(None),
+        thread: Some(thread),
+    })
 }
 
 /// Write all of `bytes` to a non-blocking stream; false if it closed.
@@ -124,13 +168,23 @@ fn write_all(s: &mut UnixStream, mut bytes: &[u8], stop: &AtomicBool) -> bool {
     true
 }
 
-fn run(mut dev: VirtualDevice, mut io_: UnixStream, speed: f64, stop: &AtomicBool) -> SimReport {
+fn run(
+    mut dev: VirtualDevice,
+    streams: Receiver<UnixStream>,
+    speed: f64,
+    stop: &AtomicBool,
+) -> SimReport {
     let start = Instant::now();
     let mut ticks: u64 = 0;
     let mut buf = [0u8; 4096];
-    let mut connected = true;
+    // The wire: bytes go out only while a host is connected (a real
+    // board's transmitter runs on regardless).
+    let mut io_: Option<UnixStream> = None;
     let hz = TICK_HZ as f64 * speed;
     while !stop.load(Ordering::Relaxed) {
+        if let Some(s) = streams.try_iter().last() {
+            io_ = Some(s);
+        }
         let due = (start.elapsed().as_secs_f64() * hz) as u64;
         if ticks >= due {
             thread::sleep(Duration::from_micros(300));
@@ -138,20 +192,34 @@ fn run(mut dev: VirtualDevice, mut io_: UnixStream, speed: f64, stop: &AtomicBoo
         }
         // At most a few ticks' worth at once, so the link is served often.
         for _ in 0..(due - ticks).min(16) {
-            while connected {
-                match io_.read(&mut buf) {
-                    Ok(0) => connected = false,
-                    Ok(n) => dev.receive(&buf[..n]),
-                    Err(e) if e.kind() == io::ErrorKind::WouldBlock => break,
-                    Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
-                    Err(_) => connected = false,
+            let mut closed = false;
+            if let Some(s) = io_.as_mut() {
+                loop {
+                    match s.read(&mut buf) {
+                        Ok(0) => {
+                            closed = true;
+                            break;
+                        }
+                        Ok(n) => dev.receive(&buf[..n]),
+                        Err(e) if e.kind() == io::ErrorKind::WouldBlock => break,
+                        Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+                        Err(_) => {
+                            closed = true;
+                            break;
+                        }
+                    }
                 }
             }
             dev.run_tick();
             ticks += 1;
             let out = dev.transmit();
-            if connected && !out.is_empty() && !write_all(&mut io_, &out, stop) {
-                connected = false;
+            if let Some(s) = io_.as_mut() {
+                if !closed && !out.is_empty() && !write_all(s, &out, stop) {
+                    closed = true;
+                }
+            }
+            if closed {
+                io_ = None;
             }
         }
     }
