@@ -432,6 +432,19 @@ fn send(a: SendArgs, target: &Target, link_timeout: Duration) -> Result<Exit, Fa
     ));
 
     let interactive = std::io::stdin().is_terminal() && a.script.is_none();
+    let bar = !a.log && std::io::stderr().is_terminal();
+    let mut display: Box<dyn Display> = if bar {
+        Box::new(BarDisplay::new(
+            program.length_mm(),
+            if interactive { KEYS_HELP } else { "" },
+        ))
+    } else {
+        let mut d = LogDisplay::new(std::io::stderr(), Duration::from_secs(1));
+        if interactive {
+            d.note(KEYS_HELP);
+        }
+        Box::new(d)
+    };
     let keys = if interactive {
         match Keys::start() {
             Ok(k) => Some(k),
@@ -443,26 +456,9 @@ fn send(a: SendArgs, target: &Target, link_timeout: Duration) -> Result<Exit, Fa
     } else {
         None
     };
-    let bar = !a.log && std::io::stderr().is_terminal();
     let mut inputs = Inputs::new(keys, script, interrupts);
-    let outcome = if bar {
-        let mut d = BarDisplay::new(program.length_mm(), KEYS_HELP);
-        let o = session.run(&program, &hs, &opts, &mut inputs, &mut d);
-        d.finish();
-        o
-    } else {
-        let mut d = LogDisplay::new(std::io::stderr(), Duration::from_secs(1));
-        if inputs.keys.is_some() {
-            d.note(KEYS_HELP);
-        }
-        session.run(
-            &program,
-            &hs,
-            &opts,
-            &mut inputs,
-            &mut d as &mut dyn Display,
-        )
-    };
+    let outcome = session.run(&program, &hs, &opts, &mut inputs, display.as_mut());
+    display.finish();
     // Leave raw mode before the summary.
     drop(inputs);
     say(&outcome.message);

@@ -70,13 +70,10 @@ impl BarDisplay {
         .unwrap_or_else(|_| ProgressStyle::default_bar())
         .progress_chars("=> ");
         bar.set_style(style);
-        bar.println(help);
+        if !help.is_empty() {
+            bar.println(help);
+        }
         BarDisplay { bar }
-    }
-
-    /// Leave the bar where it is (the summary follows below it).
-    pub fn finish(&self) {
-        self.bar.abandon();
     }
 }
 
@@ -89,6 +86,11 @@ impl Display for BarDisplay {
 
     fn note(&mut self, text: &str) {
         self.bar.println(text);
+    }
+
+    /// Leave the bar where it is (the summary follows below it).
+    fn finish(&mut self) {
+        self.bar.abandon();
     }
 }
 

@@ -60,6 +60,8 @@ pub trait Display {
     fn show(&mut self, view: &View);
     /// A message for the operator.
     fn note(&mut self, text: &str);
+    /// The run ended: leave what is shown in place.
+    fn finish(&mut self) {}
 }
 
 /// A display that shows nothing.

@@ -9,6 +9,7 @@ use std::thread::{self, JoinHandle};
 use std::time::Duration;
 
 use crossterm::event::{self, Event};
+use rustix::termios;
 
 use crate::actions::{from_key, Action, Script};
 use crate::stream::Actions;
@@ -22,9 +23,16 @@ pub struct Keys {
 }
 
 impl Keys {
-    /// Start reading keys (stdin must be a terminal).
+    /// Start reading keys (stdin must be a terminal). Raw mode, except
+    /// that output keeps its line discipline (a newline returns the
+    /// carriage), so the progress bar and notes print as usual.
     pub fn start() -> std::io::Result<Keys> {
         crossterm::terminal::enable_raw_mode()?;
+        let tty = std::io::stdin();
+        if let Ok(mut t) = termios::tcgetattr(&tty) {
+            t.output_modes |= termios::OutputModes::OPOST | termios::OutputModes::ONLCR;
+            let _ = termios::tcsetattr(&tty, termios::OptionalActions::Now, &t);
+        }
         let (tx, rx) = mpsc::channel();
         let stop = Arc::new(AtomicBool::new(false));
         let stop2 = stop.clone();

@@ -138,7 +138,7 @@ fn a_fresh_controllers_settings_are_checked() {
 
 #[test]
 fn scripted_hold_resume_and_override_act_on_the_motion() {
-    let h = sim::start(2.0).unwrap();
+    let h = sim::start(3.0).unwrap();
     let p = load("butterfly");
     let rec = temp("hold.jsonl");
     let mut s = session(&h, Recorder::create(&rec).unwrap());
@@ -402,15 +402,15 @@ fn a_lost_override_is_sent_again() {
             self.inner.flush()
         }
     }
-    let h = sim::start(1.0).unwrap();
-    let p = load("butterfly");
+    let h = sim::start(2.0).unwrap();
+    let p = load("infinity");
     let raw = h.connect().unwrap();
     let w = DropOverride {
         inner: raw.try_clone().unwrap(),
         done: false,
     };
     let mut s = Session::new(Box::new(w), Box::new(raw), Recorder::none());
-    let mut script = Script::parse("at point 200: override 150\n").unwrap();
+    let mut script = Script::parse("at point 100: override 150\n").unwrap();
     let o = run(&mut s, &p, &mut script);
     assert_done(&o, &p);
     assert_eq!(o.summary.last_status.unwrap().override_percent, 150);
