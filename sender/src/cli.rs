@@ -473,3 +473,73 @@ fn send(a: SendArgs, target: &Target, link_timeout: Duration) -> Result<Exit, Fa
     }
     Ok(outcome.exit)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::stream::Summary;
+
+    fn outcome(exit: Exit, summary: Summary) -> Outcome {
+        Outcome {
+            exit,
+            message: String::new(),
+            summary,
+        }
+    }
+
+    #[test]
+    fn the_summary_says_whether_the_run_was_exact() {
+        let good = Summary {
+            scheduled: 10,
+            ended_on_last_point: true,
+            last_status: Some(Status::default()),
+            ..Summary::default()
+        };
+        let t = summary_text(&outcome(Exit::Done, good.clone()));
+        assert!(t[0].contains("bit for bit"), "{t:?}");
+        assert!(!t.iter().any(|l| l.contains("WARNING")), "{t:?}");
+        let bad = Summary {
+            feed_mismatches: 1,
+            mismatch_examples: vec![(4, 100.0, 101.0)],
+            ended_on_last_point: false,
+            ..good
+        };
+        let t = summary_text(&outcome(Exit::Done, bad.clone()));
+        assert!(
+            t[0].starts_with("WARNING: 1 of 10") && t[0].contains("point 5"),
+            "{t:?}"
+        );
+        assert!(t[1].contains("last point"), "{t:?}");
+        // A stopped run is not expected on the last point.
+        let t = summary_text(&outcome(Exit::UserStop, bad));
+        assert!(!t.iter().any(|l| l.contains("last point")), "{t:?}");
+    }
+
+    #[test]
+    fn one_link_at_most() {
+        let c = Cli::try_parse_from([
+            "fuzzy-send",
+            "send",
+            "x.nc",
+            "--port",
+            "/dev/x",
+            "--tcp",
+            "a:1",
+        ])
+        .unwrap();
+        assert_eq!(c.link.target().unwrap_err().exit, Exit::Usage);
+        let c = Cli::try_parse_from(["fuzzy-send", "--sim=3", "send", "x.nc"]).unwrap();
+        assert_eq!(c.link.target().unwrap(), Target::Sim { speed: 3.0 });
+        let c = Cli::try_parse_from(["fuzzy-send", "status", "--port", "/dev/x"]).unwrap();
+        assert_eq!(
+            c.link.target().unwrap(),
+            Target::Serial {
+                port: "/dev/x".into(),
+                baud: DEFAULT_BAUD
+            }
+        );
+        assert!(
+            Cli::try_parse_from(["fuzzy-send", "send", "x", "--override", "300", "--sim"]).is_err()
+        );
+    }
+}

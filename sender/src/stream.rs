@@ -334,8 +334,9 @@ impl Session {
                 break;
             }
         }
-        let hello = self.conn.client().hello();
         let status = self.status_within(opts.link_timeout, |_| {})?;
+        // A board that resets when its port opens may say hello late.
+        let hello = self.conn.client().hello();
         // Whether it just reset or was running: continue its sequence.
         self.conn.client_mut().resync(&status);
         let credit_size = match self.raw_hello {
@@ -514,7 +515,7 @@ impl<'a> Run<'a> {
         View {
             status: st,
             queued: queued(&st, self.credit_size),
-            credit: c.window_end().wrapping_sub(c.send_next()).min(1 << 16),
+            credit: (c.window_end().wrapping_sub(c.send_next()) as i32).max(0) as u32,
             reached,
             points: self.program.len() as u32,
             done_mm: match r {
@@ -834,6 +835,138 @@ impl<'a> Run<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use host_sim::config::SimConfig;
+
+    fn program() -> Program {
+        crate::program::load("trident", &SimConfig::default()).unwrap()
+    }
+
+    fn handshake(status: Status) -> Handshake {
+        Handshake {
+            hello: None,
+            status,
+            settings: SettingsCheck::Unchecked,
+            credit_size: CMD_CREDIT,
+        }
+    }
+
+    /// A run whose path starts at sequence number 10.
+    fn run<'a>(p: &'a Program, o: &'a Options) -> Run<'a> {
+        let mut r = Run::new(p, &handshake(Status::default()), o);
+        r.start_seq = 10;
+        r.first_point_seq = 11;
+        r.end_seq = 11 + p.len() as u32;
+        r
+    }
+
+    #[test]
+    fn how_messages_end_a_run() {
+        let p = program();
+        let o = Options::new(crate::program::scheduler_config(5000.0, 60.0).unwrap());
+        let mut r = run(&p, &o);
+        let refused = |code, expected_seq| DeviceMsg::Error { code, expected_seq };
+        // Line noise and credit refusals are the link client's business.
+        for code in [
+            ErrorCode::Crc,
+            ErrorCode::OutOfSequence,
+            ErrorCode::NoCredit,
+        ] {
+            assert_eq!(r.on_message(&refused(code, 12), None), Ok(None));
+        }
+        // A refused point of ours ends the run, naming the point.
+        let e = r
+            .on_message(&refused(ErrorCode::OutOfRange, 12), None)
+            .unwrap_err();
+        assert_eq!(e.exit, Exit::Controller);
+        assert!(e.message.contains("point 2"), "{e}");
+        assert!(r
+            .on_message(&refused(ErrorCode::Rejected, 10), None)
+            .unwrap_err()
+            .message
+            .contains("start"));
+        // Not ours (another path's sequence numbers): not a reason.
+        assert_eq!(
+            r.on_message(&refused(ErrorCode::OutOfRange, 3), None),
+            Ok(None)
+        );
+        // A stop report: the user's stop, or the controller's own abort.
+        let aborted = DeviceMsg::Aborted {
+            commands: 1,
+            points: 2,
+            pos_mm: [1 << 32, 0, 0],
+        };
+        let (exit, msg) = r
+            .on_message(&aborted, Some(StopKind::Stop))
+            .unwrap()
+            .unwrap();
+        assert_eq!(exit, Exit::UserStop);
+        assert!(msg.contains("X1.000"), "{msg}");
+        let (exit, msg) = r
+            .on_message(&aborted, Some(StopKind::EStop))
+            .unwrap()
+            .unwrap();
+        assert_eq!(exit, Exit::UserStop);
+        assert!(msg.contains("controlled stop"), "{msg}");
+        let (exit, _) = r.on_message(&aborted, None).unwrap().unwrap();
+        assert_eq!(exit, Exit::Controller);
+        // A hello during the run: the controller reset.
+        let hello = DeviceMsg::Hello {
+            tick_hz: 1000,
+            accel_mm_per_s2: 1000,
+            window_end: 12,
+            feed_max_mm_per_min: 5000,
+            planner_points: 112,
+        };
+        assert_eq!(
+            r.on_message(&hello, None).unwrap_err().exit,
+            Exit::Controller
+        );
+    }
+
+    #[test]
+    fn reported_feeds_are_checked_against_the_hosts_schedule() {
+        let p = program();
+        let o = Options::new(crate::program::scheduler_config(3000.0, 60.0).unwrap());
+        let mut r = run(&p, &o);
+        let (index, feed) = r.host[5].unwrap();
+        let sched = |feed_mm_per_min| DeviceMsg::Scheduled {
+            seq: 16,
+            index,
+            feed_mm_per_min,
+            tick: 0,
+        };
+        r.on_message(&sched(feed), None).unwrap();
+        assert_eq!((r.summary.scheduled, r.summary.feed_mismatches), (1, 0));
+        assert!(
+            r.started,
+            "a report of our point: the controller is on our path"
+        );
+        r.on_message(&sched(feed + 1), None).unwrap();
+        assert_eq!((r.summary.scheduled, r.summary.feed_mismatches), (2, 1));
+        assert_eq!(r.summary.mismatch_examples[0].0, 5);
+    }
+
+    #[test]
+    fn progress_waits_for_the_controller_to_leave_the_previous_path() {
+        let p = program();
+        let o = Options::new(crate::program::scheduler_config(3000.0, 60.0).unwrap());
+        let old = Status {
+            point_reached: 138,
+            ..Status::default()
+        };
+        let mut r = Run::new(&p, &handshake(old), &o);
+        assert_eq!(r.reached(&old), None, "still the previous path's count");
+        r.on_message(&DeviceMsg::Status(old), None).unwrap();
+        assert_eq!(r.reached(&old), None);
+        let new = Status {
+            point_reached: 3,
+            ..old
+        };
+        r.on_message(&DeviceMsg::Status(new), None).unwrap();
+        assert_eq!(r.reached(&new), Some(3));
+        let fresh = Run::new(&p, &handshake(Status::default()), &o);
+        assert_eq!(fresh.reached(&Status::default()), Some(0));
+    }
 
     #[test]
     fn the_expected_hello_is_the_controllers_own() {

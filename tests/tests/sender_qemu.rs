@@ -550,9 +550,23 @@ fn a_busy_firmware_is_refused_stopped_and_runs_the_next_program() {
         assert!(Instant::now() < deadline, "the path did not get going");
         thread::sleep(Duration::from_millis(20));
     }
-    // The sender dies without a word: the firmware runs out of path.
+    // The sender dies without a word: the firmware runs out of path and
+    // stops on it under control (an underrun stop), and stays there.
     let _ = run.child.kill();
     let _ = run.wait(Duration::from_secs(10));
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let starved = loop {
+        let s = status_json(&q);
+        if s.motion == Motion::Starved && s.feed_mm_per_min == 0 {
+            break s;
+        }
+        assert!(Instant::now() < deadline, "no controlled stop: {s:?}");
+        thread::sleep(Duration::from_millis(100));
+    };
+    assert!(starved.underruns >= 1, "{starved:?}");
+    assert_eq!(starved.empty_ticks, 0, "{starved:?}");
+    thread::sleep(Duration::from_millis(300));
+    assert_eq!(status_json(&q).pos_mm, starved.pos_mm, "standing still");
     let file = repo_root().join("tests/data/gcode/pocket.ngc");
     let mut send = q.link_args();
     send.extend(["send".into(), file.display().to_string()]);
