@@ -10,6 +10,7 @@ fn main() {
         "FW_JERK_MM_PER_S3",
         "FW_CHORD_NM",
         "FW_TANGENTIAL_SHARE_PERCENT",
+        "FW_LINK_BAUD",
     ] {
         println!("cargo:rerun-if-env-changed={var}");
     }

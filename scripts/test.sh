@@ -41,3 +41,6 @@ python3 firmware/scripts/check.py cost
 
 step "tests (including the firmware in QEMU: tests/tests/firmware_qemu.rs)"
 FUZZY_REQUIRE_OCTAVE=1 FUZZY_REQUIRE_QEMU=1 cargo test --workspace -q
+
+step "fuzz: every target in fuzz/ for 60 s (cargo-fuzz on stable, --sanitizer none)"
+fuzz/run.sh 60

@@ -234,13 +234,14 @@ impl<'a> Background<'a> {
     }
 }
 
-/// Send what the planner took (room was checked: the reserve).
+/// Send what the planner took, if the host wants it (room was checked:
+/// the reserve).
 fn report<L: Mutex<T = DeviceLink>>(
     link: &mut L,
     input: PlanInput,
     notice: &mut impl FnMut(Notice),
 ) {
-    if !link.lock(|l| l.tx.send(&input.to_msg(), 0)) {
+    if !link.lock(|l| !l.reports || l.tx.send(&input.to_msg(), 0)) {
         notice(Notice::ReportDropped);
     }
 }

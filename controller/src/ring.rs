@@ -20,8 +20,18 @@ pub struct Ring<T: Copy, const N: usize> {
     inner: Mutex<Inner<T, N>>,
 }
 
+/// A slot. Tagged 0 when empty (`repr(u8)`), so that an empty ring is all
+/// zeros and a `static` one lives in `.bss`, not in flash-initialised
+/// `.data` (an `Option<T>` would take its `None` from `T`'s niche).
+#[derive(Clone, Copy)]
+#[repr(u8)]
+enum Slot<T: Copy> {
+    Empty = 0,
+    Full(T) = 1,
+}
+
 struct Inner<T: Copy, const N: usize> {
-    slots: [Cell<Option<T>>; N],
+    slots: [Cell<Slot<T>>; N],
     /// Next slot to read.
     head: Cell<usize>,
     /// Next slot to write.
@@ -63,7 +73,7 @@ impl<T: Copy, const N: usize> Ring<T, N> {
         let () = Self::VALID;
         Ring {
             inner: Mutex::new(Inner {
-                slots: [const { Cell::new(None) }; N],
+                slots: [const { Cell::new(Slot::Empty) }; N],
                 head: Cell::new(0),
                 tail: Cell::new(0),
             }),
@@ -109,7 +119,7 @@ impl<T: Copy, const N: usize> Producer<'_, T, N> {
             let next = Inner::<T, N>::next(tail);
             match r.slots.get(tail) {
                 Some(slot) if next != r.head.get() => {
-                    slot.set(Some(value));
+                    slot.set(Slot::Full(value));
                     r.tail.set(next);
                     Ok(())
                 }
@@ -142,7 +152,10 @@ impl<T: Copy, const N: usize> Consumer<'_, T, N> {
             if head == r.tail.get() {
                 return None;
             }
-            let value = r.slots.get(head)?.take();
+            let value = match r.slots.get(head)?.replace(Slot::Empty) {
+                Slot::Full(v) => Some(v),
+                Slot::Empty => None,
+            };
             r.head.set(Inner::<T, N>::next(head));
             value
         })

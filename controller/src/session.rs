@@ -6,7 +6,8 @@
 //! [`DeviceLink::on_taken`] for each command it takes from the queue and
 //! [`DeviceLink::poll`] once a pass, which returns credit to the host. The
 //! protocol's rules (`link` crate docs), as this side keeps them:
-//! - path commands (`StartPath`, `Point`, `EndPath`) carry sequence numbers;
+//! - path commands (`StartPath`, `Point`, `EndPath`, and each point of a
+//!   `Points` batch) carry sequence numbers;
 //!   only the next one is accepted, a repeat of an accepted one is
 //!   acknowledged again (a resend is harmless), a gap is refused with
 //!   `OutOfSequence` (the host goes back to `expected_seq`);
@@ -245,6 +246,8 @@ pub struct DeviceLink {
     /// An abort arrived and the background has not taken it yet.
     abort: bool,
     noise: NoiseLimit,
+    /// The planner's inputs are reported (`HostMsg::Reports`).
+    pub reports: bool,
 }
 
 impl Default for DeviceLink {
@@ -294,6 +297,7 @@ impl DeviceLink {
                 tokens: NOISE_BURST,
                 since_us: 0,
             },
+            reports: true,
         }
     }
 
@@ -381,6 +385,26 @@ impl DeviceLink {
             HostMsg::Abort { next_seq } => {
                 self.session.abort(next_seq);
                 self.abort = true;
+                return Ok(Reply::Ack);
+            }
+            HostMsg::Reports { planner } => {
+                self.reports = planner;
+                return Ok(Reply::Ack);
+            }
+            HostMsg::Points { seq, batch } => {
+                // All or nothing for what is wrong in the frame itself: every
+                // point is checked before the first is taken.
+                for p in batch.points() {
+                    let p = p?;
+                    point_from_link(0, p.pos_mm, p.feed_cap_mm_per_min)
+                        .ok_or(ErrorCode::OutOfRange)?;
+                }
+                for (i, p) in batch.points().enumerate() {
+                    let p = p?;
+                    let s = seq.wrapping_add(i as u32);
+                    let cmd = point_from_link(s, p.pos_mm, p.feed_cap_mm_per_min).map(Cmd::point);
+                    self.session.accept(s, cmd, queue)?;
+                }
                 return Ok(Reply::Ack);
             }
             HostMsg::StartPath {

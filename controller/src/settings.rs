@@ -110,15 +110,39 @@ pub type Sched = Scheduler<&'static Lin2021Compact, WS, AVG, SCHED_CAP>;
 pub type Plan = Motion<PLANNER_POINTS>;
 
 /// Link command queue (USART task → scheduler), slots; the credit window
-/// is its free room (`ring::Ring<_, N>` holds `N − 1`).
-pub const CMD_QUEUE: usize = 13;
+/// is its free room (`ring::Ring<_, N>` holds `N − 1`). 96 points are six
+/// full `Points` frames in flight: the link stays busy across a USB-serial
+/// adapter's round trip of a few ms (48 bytes a slot).
+pub const CMD_QUEUE: usize = 97;
 /// The credit: commands the host may have outstanding (the queue's room).
 pub const CMD_CREDIT: u32 = CMD_QUEUE as u32 - 1;
-/// Transmit buffer, bytes (with the command queue's 12 slots, sized so that
-/// the board build stays within 12 KiB of static RAM).
-pub const TX_BUFFER: usize = 384;
+/// Link baud rate, 8N1 (`FW_LINK_BAUD`, default 921 600: common USB-serial
+/// adapters take it, and the F4's USART1 on an 84 MHz APB2 makes it within
+/// 0.16 %: [`usart_brr`]).
+pub const LINK_BAUD: u32 = env_u32(option_env!("FW_LINK_BAUD"), 921_600);
+
+/// The USART's BRR for `baud` from a `pclk_hz` peripheral clock with
+/// 16× oversampling (RM0090 §30.3.4: `USARTDIV = f_PCLK / (16 · baud)`,
+/// mantissa and four fraction bits, i.e. `f_PCLK / baud` rounded).
+pub const fn usart_brr(pclk_hz: u32, baud: u32) -> u32 {
+    let baud = if baud == 0 { 1 } else { baud };
+    (pclk_hz + baud / 2) / baud
+}
+
+/// The baud rate BRR `brr` gives from `pclk_hz`, and its error from `baud`
+/// in parts per million.
+pub const fn baud_error_ppm(pclk_hz: u32, baud: u32) -> i64 {
+    let brr = usart_brr(pclk_hz, baud);
+    let brr = if brr == 0 { 1 } else { brr };
+    let actual = pclk_hz as i64 * 1_000_000 / brr as i64;
+    let want = if baud == 0 { 1 } else { baud as i64 };
+    (actual - want * 1_000_000) / want
+}
+
+/// Transmit buffer, bytes.
+pub const TX_BUFFER: usize = 512;
 /// Send a credit update after this many commands were taken from the queue.
-pub const CREDIT_BATCH: u32 = 8;
+pub const CREDIT_BATCH: u32 = 16;
 
 /// `v` within `lo..=hi` (a `const` `Ord::clamp`).
 const fn clamp(v: u32, lo: u32, hi: u32) -> u32 {
@@ -128,5 +152,24 @@ const fn clamp(v: u32, lo: u32, hi: u32) -> u32 {
         hi
     } else {
         v
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_link_rates_come_within_a_percent_on_an_84_mhz_apb2() {
+        // 921 600: BRR 91 (5 + 11/16), 923 077 baud, +0.16 %.
+        assert_eq!(usart_brr(84_000_000, 921_600), 91);
+        assert_eq!(baud_error_ppm(84_000_000, 921_600), 1602);
+        // 115 200: BRR 729 (45 + 9/16), 115 226 baud, +0.02 %.
+        assert_eq!(usart_brr(84_000_000, 115_200), 729);
+        assert!(baud_error_ppm(84_000_000, 115_200).abs() < 300);
+        for baud in [9_600, 57_600, 230_400, 250_000, 460_800, 500_000, 1_000_000] {
+            assert!(baud_error_ppm(84_000_000, baud).abs() < 10_000, "{baud}");
+        }
+        assert!(baud_error_ppm(84_000_000, LINK_BAUD).abs() < 10_000);
     }
 }

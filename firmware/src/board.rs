@@ -7,7 +7,7 @@
 //!
 //! | what | peripheral | pins |
 //! |---|---|---|
-//! | link, 115 200 8N1 | USART1 | PA9 TX, PA10 RX (AF7) |
+//! | link, 921 600 8N1 (`FW_LINK_BAUD`) | USART1 | PA9 TX, PA10 RX (AF7) |
 //! | interpolator tick | SysTick (core timer, exception) | |
 //! | X step / dir | GPIOE | PE0 / PE1 |
 //! | Y step / dir | GPIOE | PE2 / PE3 |
@@ -23,6 +23,7 @@
 
 use core::convert::Infallible;
 
+use controller::settings::LINK_BAUD;
 use stm32f4::stm32f405 as pac;
 
 /// Core clock, Hz (also SysTick's, our cycle counter).
@@ -30,8 +31,13 @@ pub const SYSCLK_HZ: u32 = 168_000_000;
 
 /// USART1's clock (APB2), Hz.
 const APB2_HZ: u32 = 84_000_000;
-/// Link baud rate.
-pub const LINK_BAUD: u32 = 115_200;
+
+/// The link's rate must come within 1 % (a UART tolerates about 2 % in
+/// all, both ends together).
+const _: () = assert!(
+    controller::settings::baud_error_ppm(APB2_HZ, LINK_BAUD).abs() < 10_000,
+    "FW_LINK_BAUD is more than 1 % off on an 84 MHz APB2"
+);
 
 /// The peripherals the application uses, set up.
 pub struct Board {
@@ -69,11 +75,10 @@ pub fn init(dp: pac::Peripherals) -> Board {
         .moder
         .modify(|r, w| unsafe { w.bits((r.bits() & !0xFFF) | 0b0101_0101_0101) });
 
-    // USART1: 115200 8N1, receive interrupt.
+    // USART1: 8N1 at LINK_BAUD, receive interrupt.
     let usart = &dp.USART1;
-    usart
-        .brr
-        .write(|w| unsafe { w.bits((APB2_HZ + LINK_BAUD / 2) / LINK_BAUD) });
+    let brr = controller::settings::usart_brr(APB2_HZ, LINK_BAUD);
+    usart.brr.write(|w| unsafe { w.bits(brr) });
     // UE | RXNEIE | TE | RE
     usart
         .cr1

@@ -10,7 +10,7 @@
 //! towards zero at the start or end. O(1) per feed with an exact integer
 //! running sum (no drift), `h` points of latency.
 
-use crate::fixmath::div_u64_small;
+use crate::numerics::wide::div_u64_small;
 use crate::ring::Ring;
 
 /// A feed leaving the filter, with its payload.

@@ -26,13 +26,13 @@
 //! products; chords up to 0.25 mm (2^30 units of 2^-32 mm) are not shifted at
 //! all. The few remaining products and two reciprocal square roots (one per
 //! chord length, `|d| = |d|²/sqrt(|d|²)`, and `κ = num/sqrt(num·den)` for
-//! `κ² = num/den`: no division) use a 32-bit-mantissa integer soft float.
-//! Measured against the
-//! f64 formula on the same points (`tests/curvature_accuracy.rs`): relative
-//! error below 1e-7 for chords up to 0.25 mm; longer chords lose the low bits
-//! of their small components, an absolute error below ~2^-28/chord 1/mm
-//! (4e-9 /mm for a 1 mm chord), which is large relative only on nearly straight
-//! triples (κ below 1e-4 /mm). Bit-identical on every target.
+//! `κ² = num/den`: no division) use a 32-bit-mantissa integer soft float
+//! ([`crate::numerics::softfloat`]). For chords up to 0.25 mm only the soft
+//! float's 32-bit rounding remains; longer chords lose the low bits of their small components, an absolute
+//! error of about 2^-28/chord 1/mm, large relative only on nearly straight
+//! triples. `tests/curvature_accuracy.rs` measures the error against the
+//! f64 formula on the same points (README, "Measured"). Bit-identical on
+//! every target.
 //!
 //! # Degenerate cases (the paper does not define them; chosen here)
 //! - **Coincident points** (`t_a = 0` or `t_b = 0`): no quadratic exists;
@@ -56,8 +56,8 @@
 //!   scheduler gives them the curvature of their only neighbour
 //!   (one-sided estimate), see [`crate::scheduler`].
 
-use crate::fixmath::sar_i64_low;
-use crate::softfloat::Sf;
+use crate::numerics::softfloat::Sf;
+use crate::numerics::wide::sar_i64_low;
 use crate::units::{CurvaturePerMm, Point3Mm};
 
 /// Why a curvature could not be computed.
@@ -88,17 +88,17 @@ struct Scaled {
 }
 
 impl Scaled {
-    /// `None` for the zero vector. (Inlined: two calls per point, and the
-    /// returned `Option` costs as much as the body on the target.)
+    /// `None` for the zero vector. (Inlined: it runs twice per point, and
+    /// the `Option` then folds away.)
     #[inline(always)]
     fn new(d: [i64; 3]) -> Option<Scaled> {
         let m = magnitude_bits(&d);
         if m == 0 {
             return None;
         }
-        let shift = 64 - m.leading_zeros() as i32 - 30; // top bit lands on bit 29
-                                                        // 32-bit shifts only (a variable 64-bit shift is a library call on
-                                                        // the target): below 2^30 every component already fits an i32.
+        // The top bit lands on bit 29. 32-bit shifts only (`numerics::wide`):
+        // below 2^30 every component already fits an i32.
+        let shift = 64 - m.leading_zeros() as i32 - 30;
         let n = if shift <= 0 {
             let l = (-shift) as u32;
             [(d[0] as i32) << l, (d[1] as i32) << l, (d[2] as i32) << l]
@@ -147,7 +147,8 @@ impl Chord {
 
     fn from_diff(d: [i64; 3]) -> Option<Chord> {
         let v = Scaled::new(d)?;
-        // |d| = |d|² / sqrt(|d|²): a reciprocal root, cheaper than a root.
+        // |d| = |d|² / sqrt(|d|²): a reciprocal root, cheaper than a root
+        // (`numerics` cost table).
         let sq = v.norm_sq();
         Some(Chord {
             len: sq.mul_inline(sq.rsqrt()?),
@@ -166,8 +167,8 @@ impl Chord {
 /// wrap; the scheduler rejects anything beyond ±100 m first).
 fn diff(b: &Point3Mm, a: &Point3Mm) -> [i64; 3] {
     let (b, a) = (b.to_bits(), a.to_bits());
-    // `checked_sub` compiles to subtract-with-flags; `saturating_sub` on i64
-    // costs several times more on a 32-bit core.
+    // Saturating through `checked_sub`: a subtract with flags on a 32-bit
+    // core, shorter than `i64::saturating_sub` there.
     let sat = |x: i64, y: i64| {
         x.checked_sub(y)
             .unwrap_or(if x > y { i64::MAX } else { i64::MIN })
@@ -188,7 +189,7 @@ fn diff_in_range(b: &Point3Mm, a: &Point3Mm) -> [i64; 3] {
 
 /// The components' magnitudes OR-ed together: 0 for the zero vector, and
 /// the same leading zeros as the largest magnitude (all the callers need),
-/// for two instructions per component less than the maximum.
+/// with fewer operations than the maximum.
 #[inline(always)]
 fn magnitude_bits(c: &[i64; 3]) -> u64 {
     c[0].unsigned_abs() | c[1].unsigned_abs() | c[2].unsigned_abs()

@@ -3,14 +3,28 @@
 //! Scheduling of Computer Numerical Control Machine Tools" (2021), and a
 //! generic fuzzy engine for the other controllers of the project.
 //!
-//! Data flows one way ([`scheduler::Scheduler`]):
+//! One home per paper: each seed paper's controller lives in a module of its
+//! own, with the paper's data (terms, rules, system definitions, the compiled
+//! controllers) in `data` apart from its control law in `law`. Lin et al.'s
+//! pipeline stages are top-level modules, because they are the product's
+//! pipeline ([`scheduler::Scheduler`] runs them in this order):
 //!
-//! | stage | module | paper |
+//! | paper | module | equations, tables |
 //! |---|---|---|
-//! | curvature from three points | [`curvature`] | eq. 4-9 |
-//! | lookahead curvature variation | [`lookahead`] | eq. 10 |
-//! | Mamdani controller, centroid | [`lin2021`] on [`fuzzy`] | 2.7.1, Table 6, eq. 11 |
-//! | average filter | [`average`] | 2.7.2 |
+//! | Lin, Lin & Wang 2021 | [`curvature`] | eq. 4-9: three-point curvature |
+//! | | [`lookahead`] | eq. 10: curvature variation Dκ |
+//! | | [`lin2021`] ([`data`](lin2021::data), [`law`](lin2021::law)) on [`fuzzy`] | §2.7.1, Table 6, rules R1-R30, eq. 11; Dκ normalisation |
+//! | | [`average`] | §2.7.2: average filter |
+//! | | [`scheduler`] | Fig. 1, §2.6-2.7: the stages in a stream, `F = max(F_min, u·F_max)` |
+//! | Njiri, Ikua & Nyakoe 2011 (WASET vol. 5 no. 8) | [`njiri`] ([`data`](njiri::data), [`law`](njiri::law)) | §II.A-D, Table I, eq. 9, Fig. 7-8; §III.A references |
+//! | Nagata, Kuribayashi, Kusumoto & Watanabe, undated (cites work up to 2002) | [`nagata`] ([`data`](nagata::data), [`law`](nagata::law)) | §3, eq. 2-7, Table 1 |
+//! | Cho, Lee & Jeon, undated (cites work up to 2000) | [`cho`] ([`data`](cho::data), [`law`](cho::law), [`contour`](cho::contour)) | §2.2 contour error, eq. 3.1-3.3, Table 3.1, §IV gains |
+//! | Dat & Phuc 2024 | none: host-sim only (`host-sim/src/experiments/dat_phuc2024`) | |
+//!
+//! Underneath: the generic fuzzy engine ([`fuzzy`]), the velocity planner
+//! ([`planner`]), the integer arithmetic every module shares and its policy
+//! ([`numerics`]: integer-only on the target, a cost table), typed units
+//! ([`units`]) and, with feature `std`, `f64` references (`reference`).
 //!
 //! `no_std`, no heap (fixed rings, `heapless`, const generics), no floating point on the
 //! target, no panics: errors are values. The firmware and the host simulator
@@ -40,18 +54,20 @@
 
 pub mod average;
 pub mod cho;
-pub mod contour;
 pub mod curvature;
-mod fixmath;
 pub mod fuzzy;
 pub mod lin2021;
 pub mod lookahead;
 pub mod nagata;
 pub mod njiri;
+pub mod numerics;
 pub mod planner;
 #[cfg(feature = "std")]
 pub mod reference;
 mod ring;
 pub mod scheduler;
-mod softfloat;
 pub mod units;
+
+// The planner (`planner/q.rs`, `planner/motion.rs`) names the soft float
+// `crate::softfloat` until its helpers join `numerics`.
+pub(crate) use numerics::softfloat;

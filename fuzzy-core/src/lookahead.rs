@@ -10,8 +10,8 @@
 //!
 //! Streaming, O(1) amortised per point: a monotonic deque of (index, κ) whose
 //! curvatures decrease from front to back holds the candidates for the
-//! maximum (a fixed ring of the crate's own rather than `heapless::Deque`,
-//! which costs about three times as much per operation on the Cortex-M4).
+//! maximum (a fixed ring of the crate's own rather than `heapless::Deque`:
+//! `ring.rs` says why).
 //! A point leaves with its `Dκ` once `WS − 1` more curvatures have arrived;
 //! at the end of a path ([`LookaheadWindow::flush`]) the window shrinks to
 //! the points that are left.

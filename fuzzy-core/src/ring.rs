@@ -1,13 +1,13 @@
 //! A fixed-capacity FIFO of `Copy` values for the scheduler's stages.
 //!
-//! `heapless::Deque` keeps a front index, a back index and a "full" flag and
-//! derives its length from them, and reaches its capacity through a storage
-//! abstraction; on the Cortex-M4 each push or pop cost 30-60 instructions in
-//! the scheduler's hot path. This ring keeps a start index and a length
-//! (both `u32`), wraps with `% N` (a multiplication for a constant `N`,
-//! after which the slot index is provably in bounds), and stores plain values (`T:
-//! Copy + Default`, so no `unsafe` for uninitialised slots). Every access
-//! is checked (`get`), so nothing here can panic.
+//! `heapless::Deque` keeps a front index, a back index and a "full" flag,
+//! derives its length from them and reaches its capacity through a storage
+//! abstraction: more work per push and pop than the scheduler's hot path
+//! needs. This ring keeps a start index and a length (both `u32`), wraps
+//! with `% N` (a multiplication for a constant `N`, after which the slot
+//! index is provably in bounds), and stores plain values (`T: Copy +
+//! Default`, so no `unsafe` for uninitialised slots). Every access is
+//! checked (`get`), so nothing here can panic.
 
 /// Up to `N` values, oldest first.
 #[derive(Clone, Copy, Debug)]
@@ -81,9 +81,9 @@ impl<T: Copy + Default, const N: usize> Ring<T, N> {
     }
 
     /// Append a value written in place (the caller fills the returned slot,
-    /// which holds a stale value); `None` when full. Filling a large value
-    /// field by field avoids the out-of-line `memcpy` that a whole-value
-    /// move compiles to at `opt-level = "z"`.
+    /// which holds a stale value); `None` when full. For large values: the
+    /// caller writes them field by field, where moving one whole is a
+    /// `memcpy` call on the target.
     #[inline(always)]
     pub(crate) fn push_slot(&mut self) -> Option<&mut T> {
         if self.is_full() {

@@ -173,7 +173,8 @@ impl core::fmt::Display for SchedulerError {
 /// sees positions only and emits one curvature per point, in order.
 ///
 /// Plain fields with a count instead of `Option`s: the stage runs once per
-/// point and the options' copies and tests were a tenth of its cost.
+/// point, and a count is tested once where each `Option` would be copied
+/// and tested.
 #[derive(Clone, Copy, Debug, Default)]
 struct CurvatureStage {
     /// Distinct points seen on this path, saturating at 3 (`before` is
@@ -250,9 +251,8 @@ impl CurvatureStage {
     }
 }
 
-/// A point in flight, as pushed. Plain scalars written field by field:
-/// moving whole `PathPoint`s compiled to out-of-line `memcpy` calls on the
-/// target (with the other moves, a sixth of the scheduler's cost).
+/// A point in flight, as pushed. Plain scalars written field by field: a
+/// whole `PathPoint` moved is a `memcpy` call on the target.
 #[derive(Clone, Copy, Debug, Default)]
 struct Held {
     pos: [i64; 3],

@@ -4,7 +4,7 @@
 //!
 //! Every interpolation tick (Fig. 3.1):
 //! 1. the servo's position is measured and fuzzy-core's online contour-error
-//!    estimator ([`fuzzy_core::contour::ContourTracker`], variable window of
+//!    estimator ([`fuzzy_core::cho::ContourTracker`], variable window of
 //!    path segments) gives `ε_c(k)`;
 //! 2. fuzzy-core's feed law ([`fuzzy_core::cho::FeedLaw`], eq. 3.2-3.3 on the
 //!    generic engine) gives `F(k)`;
@@ -63,8 +63,8 @@
 //!   the corner needs.
 
 use anyhow::{bail, Context, Result};
+use fuzzy_core::cho::ContourTracker;
 use fuzzy_core::cho::{ChoController, FeedLaw, FeedLawConfig, CONTROLLER, CONTROLLER_PRINTED};
-use fuzzy_core::contour::ContourTracker;
 use fuzzy_core::units::{FeedMmPerMin, Point3Mm};
 use serde::Serialize;
 
@@ -259,7 +259,7 @@ fn closed_loop(
         }
         // The window reaches to the end of the block after the one the
         // reference is in: decelerating, the servo can run a few µm ahead of
-        // its reference (fuzzy_core::contour module docs).
+        // its reference (fuzzy_core::cho::contour module docs).
         while next_vertex < points.len() && cum[next_vertex.saturating_sub(2)] <= s {
             tracker
                 .push(fx_point(points[next_vertex])?)

@@ -98,6 +98,7 @@ impl SimConfig {
                 && f.variation_clip_per_mm <= 32767.0,
             "methods.fuzzy.variation_clip_per_mm must be in (0, 32767]"
         );
+        self.gcode.validate()?;
         let g = &self.gcode;
         anyhow::ensure!(
             g.chord_tolerance_mm.is_finite() && g.chord_tolerance_mm > 0.0,

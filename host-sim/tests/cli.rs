@@ -21,7 +21,7 @@ fn malformed_inputs_fail_with_file_and_line_and_write_nothing() {
     let csv = d.join("bad.csv");
     std::fs::write(&csv, "0,0,0\n1,0,0\n2,zz,0\n").unwrap();
     let gc = d.join("bad.nc");
-    std::fs::write(&gc, "G1 X1 F100\nG1 X2\nG41 X3\n").unwrap();
+    std::fs::write(&gc, "G1 X1 F100\nG1 X2\nG76 X3\n").unwrap();
     let toml = d.join("bad.toml");
     std::fs::write(
         &toml,

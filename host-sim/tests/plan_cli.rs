@@ -69,7 +69,7 @@ fn plan_writes_report_plots_ticks_and_json() {
 fn plan_errors_name_the_line_and_write_nothing() {
     let d = tmp("bad");
     let gc = d.join("bad.nc");
-    std::fs::write(&gc, "G1 X1 F100\nG1 X2\nG41 X3\n").unwrap();
+    std::fs::write(&gc, "G1 X1 F100\nG1 X2\nG76 X3\n").unwrap();
     let toml = d.join("bad.toml");
     std::fs::write(&toml, "[planner]\ntangential_share = 1.5\n").unwrap();
     let toml2 = d.join("tick.toml");

@@ -18,6 +18,7 @@ use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
 use std::thread;
 use std::time::{Duration, Instant};
 
+use crate::batch::{on_grid, BatchPoint, PointBatch};
 use crate::{DeviceMsg, ErrorCode, FrameReader, HostMsg, Status, FRAME_MAX};
 
 /// The controller's hello: the settings it runs with.
@@ -33,8 +34,12 @@ pub struct Hello {
     pub planner_points: u16,
 }
 
+/// The fewest points a batch is sent with while the credit, not the path,
+/// limits it.
+pub const MIN_BATCH: usize = 8;
+
 /// Sequence numbers, credit and resends of the path commands (no I/O).
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct Client {
     /// Queued commands not yet acknowledged, from sequence number `base`.
     outbox: VecDeque<HostMsg>,
@@ -49,6 +54,25 @@ pub struct Client {
     last_status: Option<Status>,
     resends: u32,
     aborted: Option<DeviceMsg>,
+    /// Send runs of points on the grid as `Points` batches.
+    batching: bool,
+}
+
+impl Default for Client {
+    fn default() -> Self {
+        Client {
+            outbox: VecDeque::new(),
+            base: 0,
+            send_next: 0,
+            acked: 0,
+            window_end: 0,
+            hello: None,
+            last_status: None,
+            resends: 0,
+            aborted: None,
+            batching: true,
+        }
+    }
 }
 
 impl Client {
@@ -102,15 +126,64 @@ impl Client {
         self.queue(|seq| HostMsg::EndPath { seq })
     }
 
-    /// The next command to transmit, if the credit allows one.
+    /// Whether runs of points whose coordinates lie on the wire's grid
+    /// ([`crate::batch::to_grid`]) go out as `Points` batches (on by
+    /// default; off, every point is a `Point` frame).
+    pub fn set_batching(&mut self, on: bool) {
+        self.batching = on;
+    }
+
+    /// The next frame to transmit, if the credit allows one: a path
+    /// command, or a batch of consecutive points.
     pub fn poll_transmit(&mut self) -> Option<HostMsg> {
-        if self.send_next.wrapping_sub(self.window_end) as i32 >= 0 {
+        let room = self.window_end.wrapping_sub(self.send_next) as i32;
+        if room <= 0 {
             return None;
         }
         let i = self.send_next.wrapping_sub(self.base) as usize;
         let msg = *self.outbox.get(i)?;
-        self.send_next = self.send_next.wrapping_add(1);
-        Some(msg)
+        let mut n = 1;
+        let mut out = msg;
+        if self.batching {
+            let mut batch = PointBatch::new();
+            let point = |m: Option<&HostMsg>| match m {
+                Some(&HostMsg::Point {
+                    pos_mm,
+                    feed_cap_mm_per_min,
+                    ..
+                }) if pos_mm.iter().all(|c| on_grid(*c)) => Some(BatchPoint {
+                    pos_mm,
+                    feed_cap_mm_per_min,
+                }),
+                _ => None,
+            };
+            let mut k = 0;
+            let mut cut_by_credit = true;
+            while k < room as usize {
+                match point(self.outbox.get(i + k)) {
+                    Some(p) if batch.push(p) => k += 1,
+                    _ => {
+                        cut_by_credit = false;
+                        break;
+                    }
+                }
+            }
+            // A batch cut short by the credit waits for more credit: small
+            // frames would waste the wire, and a small credit means the
+            // controller's queue is nearly full anyway.
+            if k >= 1 && cut_by_credit && k < MIN_BATCH {
+                return None;
+            }
+            if k >= 2 {
+                n = k;
+                out = HostMsg::Points {
+                    seq: self.send_next,
+                    batch,
+                };
+            }
+        }
+        self.send_next = self.send_next.wrapping_add(n as u32);
+        Some(out)
     }
 
     /// A message from the controller.
@@ -277,6 +350,7 @@ pub struct Connection {
     rx: Receiver<Result<DeviceMsg, ErrorCode>>,
     client: Client,
     bad_frames: u32,
+    bytes_sent: u64,
 }
 
 impl Connection {
@@ -305,6 +379,7 @@ impl Connection {
             rx,
             client: Client::new(),
             bad_frames: 0,
+            bytes_sent: 0,
         }
     }
 
@@ -332,8 +407,14 @@ impl Connection {
         self.send_raw(f.get(..n).unwrap_or(&[]))
     }
 
+    /// Bytes sent so far.
+    pub fn bytes_sent(&self) -> u64 {
+        self.bytes_sent
+    }
+
     /// Send raw bytes.
     pub fn send_raw(&mut self, bytes: &[u8]) -> Result<(), LinkError> {
+        self.bytes_sent += bytes.len() as u64;
         self.writer.write_all(bytes).map_err(LinkError::Io)?;
         self.writer.flush().map_err(LinkError::Io)
     }
@@ -430,13 +511,56 @@ mod tests {
         }
     }
 
-    fn seq(m: &HostMsg) -> u32 {
+    /// The sequence numbers a frame carries.
+    fn seqs(m: &HostMsg) -> Vec<u32> {
         match *m {
             HostMsg::StartPath { seq, .. }
             | HostMsg::Point { seq, .. }
-            | HostMsg::EndPath { seq } => seq,
+            | HostMsg::EndPath { seq } => vec![seq],
+            HostMsg::Points { seq, batch } => (seq..seq + batch.len() as u32).collect(),
             _ => panic!("not a path command: {m:?}"),
         }
+    }
+
+    #[test]
+    fn runs_of_points_on_the_grid_go_out_in_batches_within_the_credit() {
+        let mut c = Client::new();
+        for i in 0..30 {
+            c.point([i << 20, 0, 0], None);
+        }
+        // Off the grid: a frame of its own.
+        c.point([1, 0, 0], None);
+        c.end_path();
+        c.on_message(&ack(0, 20));
+        let Some(HostMsg::Points { seq, batch }) = c.poll_transmit() else {
+            panic!("a batch")
+        };
+        assert_eq!((seq, batch.len()), (0, 20), "as far as the credit goes");
+        assert_eq!(c.poll_transmit(), None);
+        c.on_message(&ack(20, 40));
+        let Some(HostMsg::Points { seq, batch }) = c.poll_transmit() else {
+            panic!("a batch")
+        };
+        assert_eq!((seq, batch.len()), (20, 10));
+        let p: Vec<i64> = batch.points().map(|p| p.unwrap().pos_mm[0]).collect();
+        assert_eq!(p, (20..30).map(|i| i << 20).collect::<Vec<_>>());
+        assert!(matches!(
+            c.poll_transmit(),
+            Some(HostMsg::Point { seq: 30, .. })
+        ));
+        assert!(matches!(
+            c.poll_transmit(),
+            Some(HostMsg::EndPath { seq: 31 })
+        ));
+        // A go-back re-chunks from the expected point.
+        c.on_message(&DeviceMsg::Error {
+            code: ErrorCode::OutOfSequence,
+            expected_seq: 25,
+        });
+        let Some(HostMsg::Points { seq, batch }) = c.poll_transmit() else {
+            panic!("a batch")
+        };
+        assert_eq!((seq, batch.len()), (25, 5));
     }
 
     #[test]
@@ -460,7 +584,7 @@ mod tests {
 
     fn drain(c: &mut Client) -> Vec<u32> {
         std::iter::from_fn(|| c.poll_transmit())
-            .map(|m| seq(&m))
+            .flat_map(|m| seqs(&m))
             .collect()
     }
 
@@ -590,15 +714,17 @@ mod tests {
             let mut out = [0u8; FRAME_MAX];
             let n = crate::encode(&ack(0, 4), &mut out).unwrap();
             w.write_all(&out[..n]).unwrap();
-            let mut got = Vec::new();
+            let mut got: Vec<u32> = Vec::new();
             let mut buf = [0u8; 256];
             let mut rd = b;
             while got.len() < 6 {
                 let k = rd.read(&mut buf).unwrap();
                 for byte in &buf[..k] {
-                    if let Some(Ok(HostMsg::Point { seq, .. })) = r.push::<HostMsg>(*byte) {
-                        got.push(seq);
-                        let n = crate::encode(&ack(seq + 1, seq + 5), &mut out).unwrap();
+                    if let Some(Ok(m)) = r.push::<HostMsg>(*byte) {
+                        let s = seqs(&m);
+                        got.extend(&s);
+                        let last = *s.last().unwrap();
+                        let n = crate::encode(&ack(last + 1, last + 5), &mut out).unwrap();
                         w.write_all(&out[..n]).unwrap();
                     }
                 }

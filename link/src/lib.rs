@@ -37,8 +37,11 @@
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
 #![deny(missing_docs)]
 
+pub mod batch;
 #[cfg(feature = "std")]
 pub mod client;
+
+pub use batch::{BatchPoint, PointBatch};
 
 use crc::{Crc, CRC_32_ISO_HDLC};
 use serde::de::DeserializeOwned;
@@ -149,6 +152,26 @@ pub enum HostMsg {
         /// The sequence number of the host's next path command (at least
         /// the controller's next expected one).
         next_seq: u32,
+    },
+    /// Several points of the path (queued), compactly ([`batch`]): points
+    /// `seq`, `seq + 1`, … Each is a path command of its own for the
+    /// sequence and credit rules (those before the expected one are
+    /// acknowledged again, the rest taken in order as far as the credit
+    /// goes), as if sent as [`HostMsg::Point`]s.
+    Points {
+        /// Sequence number of the first point.
+        seq: u32,
+        /// The points.
+        batch: PointBatch,
+    },
+    /// Whether the controller reports every input of its planner
+    /// ([`DeviceMsg::Scheduled`], [`DeviceMsg::Planned`]; on from reset).
+    /// They let a host replay the motion bit for bit, and cost about 23
+    /// bytes of the return channel per point: a sender that does not
+    /// check the motion turns them off (immediate).
+    Reports {
+        /// Planner inputs reported.
+        planner: bool,
     },
 }
 
@@ -578,6 +601,16 @@ mod tests {
             expected_seq: 3,
         });
         roundtrip(HostMsg::Abort { next_seq: u32::MAX });
+        roundtrip(HostMsg::Reports { planner: false });
+        let mut batch = PointBatch::new();
+        while batch.push(BatchPoint {
+            pos_mm: [i64::MIN & !0xFFFF, i64::MAX & !0xFFFF, 0],
+            feed_cap_mm_per_min: Some(i64::MAX - 1),
+        }) {}
+        roundtrip(HostMsg::Points {
+            seq: u32::MAX,
+            batch,
+        });
         roundtrip(DeviceMsg::Aborted {
             commands: u32::MAX,
             points: u32::MAX,

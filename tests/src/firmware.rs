@@ -61,10 +61,64 @@ pub fn firmware_elf() -> PathBuf {
     .clone()
 }
 
-/// A path from a CSV of `x,y,z[,feed cap]` (mm, mm/min), quantised as the
-/// firmware receives it (`host_sim::path_csv`, errors name the line).
+/// A path from a CSV of `x,y,z[,feed cap]` (mm, mm/min), in I32F32
+/// (`host_sim::path_csv`, errors name the line).
 pub fn read_points(path: &Path) -> Vec<PathPoint> {
     host_sim::path_csv::read(path).unwrap_or_else(|e| panic!("{e:#}"))
+}
+
+/// Points rounded to the link's 2⁻¹⁶ mm grid (`link::batch::to_grid`), as
+/// a sender streams them: then they travel in compact `Points` batches and
+/// the firmware holds exactly these bits.
+pub fn on_grid(pts: &[PathPoint]) -> Vec<PathPoint> {
+    pts.iter()
+        .map(|p| {
+            let g = p.pos.to_bits().map(link::batch::to_grid);
+            PathPoint {
+                pos: fuzzy_core::units::Point3Mm::from_bits(g[0], g[1], g[2]),
+                ..*p
+            }
+        })
+        .collect()
+}
+
+/// A byte pipe at a serial wire's rate (`baud / 10` bytes a second, 8N1),
+/// each way: the link as a real UART carries it. Returns the end for the
+/// host; the other end is `device`.
+fn throttled(device: std::os::unix::net::UnixStream, baud: u32) -> std::os::unix::net::UnixStream {
+    let (host, inner) = std::os::unix::net::UnixStream::pair().expect("socket pair");
+    let bytes_per_s = baud as f64 / 10.0;
+    let pace = move |mut from: std::os::unix::net::UnixStream,
+                     mut to: std::os::unix::net::UnixStream| {
+        use std::io::{Read, Write};
+        thread::spawn(move || {
+            let start = Instant::now();
+            let mut sent = 0f64;
+            let mut buf = [0u8; 256];
+            while let Ok(n) = from.read(&mut buf) {
+                if n == 0 {
+                    break;
+                }
+                for chunk in buf[..n].chunks(16) {
+                    sent += chunk.len() as f64;
+                    let due = Duration::from_secs_f64(sent / bytes_per_s);
+                    if let Some(wait) = due.checked_sub(start.elapsed()) {
+                        thread::sleep(wait);
+                    }
+                    if to.write_all(chunk).is_err() {
+                        return;
+                    }
+                }
+            }
+            let _ = to.shutdown(std::net::Shutdown::Both);
+        });
+    };
+    pace(
+        device.try_clone().expect("clone"),
+        inner.try_clone().expect("clone"),
+    );
+    pace(inner, device);
+    host
 }
 
 /// A scheduled point as the firmware reported it.
@@ -170,6 +224,12 @@ impl Firmware {
     /// are instruction counts) and wait for its hello. `name` names the
     /// socket and the log file.
     pub fn start(name: &str) -> Firmware {
+        Self::start_at(name, None)
+    }
+
+    /// [`Firmware::start`] with the link at a serial wire's rate (`baud`),
+    /// or as fast as QEMU takes bytes (`None`).
+    pub fn start_at(name: &str, baud: Option<u32>) -> Firmware {
         let elf = firmware_elf();
         let dir = repo_root().join("firmware/target/qemu-logs");
         std::fs::create_dir_all(&dir).expect("log dir");
@@ -201,6 +261,10 @@ impl Firmware {
             }
         };
         let _ = std::fs::remove_file(&sock);
+        let stream = match baud {
+            Some(b) => throttled(stream, b),
+            None => stream,
+        };
         let reader = stream.try_clone().expect("socket clone");
         let mut fw = Firmware {
             child: Some(child),
@@ -225,6 +289,11 @@ impl Firmware {
             "{e} (QEMU exit status {status:?}); log: {}",
             self.log.display()
         )
+    }
+
+    /// Bytes the host sent so far.
+    pub fn bytes_sent(&self) -> u64 {
+        self.conn.bytes_sent()
     }
 
     /// The link session (sequence numbers, credit).

@@ -1,7 +1,7 @@
 //! Real G-code programs (`../shared/gcode/`) read by host-sim agree with the
 //! recorded toolpaths in `tests/data/gcode/` (golden files; set
 //! `HOST_SIM_BLESS=1` to rewrite them after a deliberate change), and the
-//! program with expressions is refused with its line.
+//! program with expressions follows the path its expressions give.
 //!
 //! The programs live beside the repository (`../shared`, as in CI); where
 //! they are missing the comparison is skipped with a note.
@@ -81,17 +81,33 @@ fn recorded_toolpaths_have_the_programs_shape() {
 }
 
 #[test]
-fn expressions_are_refused_with_their_line() {
+fn expressions_are_evaluated() {
     let Some(src) = shared("linuxcnc_square_spiral_expr.ngc") else {
         eprintln!("SKIPPED: ../shared/gcode not found");
         return;
     };
-    let e = format!(
-        "{:#}",
-        gcode::read(&src, &GcodeSettings::default()).unwrap_err()
-    );
-    assert!(
-        e.contains("line 6") && e.contains("linuxcnc_square_spiral_expr.ngc"),
-        "{e}"
-    );
+    let t = gcode::read(&src, &GcodeSettings::default()).unwrap();
+    // The program (inch) plunges to Z-.19, steps to X.01, then walks a
+    // square spiral: for k = 2…6 the corners (x, .01k) (−.01k, .01k)
+    // (−.01k, −.01k) and, but for the last, (.01(k+1), −.01k); then X0, Y0.
+    let mut xy = vec![[0.0, 0.0], [0.01, 0.0]];
+    for k in 2..=6 {
+        let v = 0.01 * k as f64;
+        let x = xy.last().unwrap()[0];
+        xy.extend([[x, v], [-v, v], [-v, -v]]);
+        if k < 6 {
+            xy.push([0.01 * (k + 1) as f64, -v]);
+        }
+    }
+    xy.extend([[0.0, -0.06], [0.0, 0.0]]);
+    let got: Vec<[f64; 3]> = t.points[1..].to_vec();
+    assert_eq!(got.len(), xy.len(), "{got:?}");
+    for (p, e) in got.iter().zip(&xy) {
+        assert!(
+            (p[0] - e[0] * 25.4).abs() < 1e-9
+                && (p[1] - e[1] * 25.4).abs() < 1e-9
+                && (p[2] + 0.19 * 25.4).abs() < 1e-9,
+            "{p:?} vs {e:?}"
+        );
+    }
 }

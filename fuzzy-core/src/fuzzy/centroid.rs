@@ -29,10 +29,10 @@
 //! in Q29 (`i32`): every operand stays below 4 whatever the universe, so each
 //! product is one 32×32→64-bit multiplication; the result is exact to ~1e-8
 //! of the range. MATLAB's default (101 samples) approximates the same
-//! integral; for Lin's controller the two differ by up to 0.12 % of the feed
-//! range (see `tests/controller_accuracy.rs`).
+//! integral; `tests/controller_accuracy.rs` prints how far the two differ
+//! for Lin's controller.
 
-use crate::fixmath::div_narrow;
+use crate::numerics::wide::div_narrow;
 
 /// 1.0 in Q29.
 const ONE: i32 = 1 << 29;

@@ -9,7 +9,7 @@
 //! A definition is compiled once (`CompiledMf::compile`) into a form that
 //! needs no division per evaluation (reciprocal slopes, `1/σ`, `log2 a`).
 
-use crate::fixmath::{exp2_neg_q30, log2_q32, LOG2E_Q30};
+use crate::numerics::explog::{exp2_neg_q30, log2_q32, LOG2E_Q30};
 use crate::units::Fx;
 
 /// 1.0 as a raw Q16.16 degree.

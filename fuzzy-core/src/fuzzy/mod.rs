@@ -2,7 +2,7 @@
 //! Gaussian / generalised-bell membership functions, Mamdani (centroid) and
 //! zero-order Sugeno inference, with systems written as `const` data.
 //!
-//! The seed controllers are data on this engine: Lin et al.'s feed
+//! The papers' controllers are data on this engine: Lin et al.'s feed
 //! controller ([`crate::lin2021`]), and the force (Njiri), segment-length
 //! (Nagata) and contour-error (Cho) controllers of the other papers.
 //!

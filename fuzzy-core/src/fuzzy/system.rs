@@ -175,6 +175,11 @@ pub enum ConfigError {
     TooManyRules,
     /// `default_output` outside the output range.
     DefaultOutOfRange,
+    /// [`ExactController`](super::ExactController) only: the system does not
+    /// take the engine's fast path (rules a complete grid of AND rules of
+    /// weight 1 with min AND, every input a partition of triangles and
+    /// trapezoids, the output terms a chain with min implication).
+    NotExact,
 }
 
 impl core::fmt::Display for VarRef {
@@ -216,6 +221,10 @@ impl core::fmt::Display for ConfigError {
             ConfigError::DefaultOutOfRange => {
                 f.write_str("default output outside the output range")
             }
+            ConfigError::NotExact => f.write_str(
+                "not an exact controller: needs a complete rule grid with min AND, \
+                 partitioned inputs and a chain of output terms with min implication",
+            ),
         }
     }
 }

@@ -1,37 +1,56 @@
-//! G-code programs as CAM systems write them → a [`Toolpath`].
+//! G-code programs as CAM systems and LinuxCNC write them → a [`Toolpath`].
 //!
-//! Parsing (blocks, words, comments, line numbers) is the `gcode` crate's;
-//! this module interprets the words. Numbers are re-read from the source
-//! text in `f64` (the crate keeps `f32`, which would put ~4 µm of noise on a
-//! 100 mm coordinate and spoil three-point curvature on short segments).
+//! The reader is an RS274/NGC interpreter in LinuxCNC's dialect: the syntax
+//! ([`parse`]), expressions ([`expr`]), numbered and named parameters and
+//! O-word control flow ([`interp`], [`program`]), canned cycles
+//! ([`cycles`]), cutter radius compensation ([`comp`]), arcs ([`arc`]) and
+//! curve blocks ([`nurbs_block`]). All output is in mm, in machine
+//! coordinates (program coordinates plus the work, G92 and tool offsets,
+//! all zero unless configured).
 //!
 //! | words | handling |
 //! |---|---|
-//! | G0 G1 | straight moves; G0 at the configured rapid feed |
-//! | G2 G3 (I J K or R, P turns) | arcs and helices, as points within the chord tolerance ([`arc`]) |
-//! | G5.2 … G5.3 (X Y P L) | LinuxCNC NURBS blocks ([`nurbs_block`]) |
-//! | G17 G18 G19 | arc plane |
-//! | G20 G21 | inch / mm (all output in mm) |
-//! | G90 G91, G90.1 G91.1 | absolute / incremental coordinates and arc centres |
-//! | F (G94) | feed in units per minute, a cap on the following blocks |
-//! | N, comments, `%` | ignored |
-//! | M, S, T, H, D words; G4 (dwell), G40, G43, G49, G54-G59.3, G61, G61.1, G64, G80, G94 | **documented skip**: no effect on the path (work and tool offsets are taken as zero; the simulator's own acc/dec replaces the blending modes; dwells do not stop the simulated tool) |
-//! | anything else (cutter compensation G41/G42, canned cycles, G28, inverse-time feed, expressions `[…]`, parameters `#`, O-words …) | **error naming the line** |
+//! | G0 G1, G53 | straight moves; G0 at the configured rapid feed |
+//! | G2 G3 (I J K or R, P turns) | arcs and helices within the chord tolerance |
+//! | G5 G5.1, G5.2 … G5.3, G6.2 | cubic and quadratic splines, NURBS blocks (any plane for G5.2, G6.2) |
+//! | G17 G18 G19, G20 G21, G90 G91, G90.1 G91.1, G7 G8 | plane, units, distance modes, lathe diameter mode |
+//! | F with G93 G94 G95, S | feed caps: per minute, inverse time (F × move length), per revolution (F × S) |
+//! | G28 G30 (with axis words: via that point), G28.1 G30.1 | to the reference positions (`[gcode.reference_positions]`, #5161-5169, #5181-5189) |
+//! | G92 G92.1 G92.2 G92.3, G52 | axis offsets (#5210-5219) |
+//! | G54-G59.3, G10 L2 / L20 | work offsets (`[gcode.work_offsets]`, #5221-5390) |
+//! | T, M6, M61, G43 H, G43.1, G43.2, G49, G10 L1/L10/L11 | tools (`[[gcode.tools]]`): length offset along Z, radius for compensation |
+//! | G40 G41 G42 G41.1 G42.1 (D) | cutter radius compensation, XY plane |
+//! | G73 G74 G81-G89, G80, G98 G99, L repeats | canned cycles expanded into moves (G88 refused) |
+//! | G33 | a straight move at K × S |
+//! | `#n`, `#<name>`, `#<_global>`, `[expressions]`, functions, O-words | evaluated as rs274ngc defines them; `o<name> call` also finds `name.ngc` beside the program or in `gcode.subroutine_dirs` |
+//! | A B C U V W | carried (offsets, references, parameters); a move that drives one is refused by name unless `gcode.extra_axes = "ignore"` |
+//! | M0 M1 M3-M5 M7-M9 M19 M48-M53 M62-M65 M67 M68, G4, G61 G61.1 G64, G96 G97, comments, N, `/` lines (block delete on) | no effect on the path |
+//! | M2 M30, a second `%` | end of program |
+//! | M70-M73 | modal state saved and restored |
+//! | G38 probing, M66 inputs, M100-M199, `#<_hal[…]>`, `#<_ini[…]>`, G88 | refused: "needs live machine state" |
+//! | anything else (G76, G70-G72, G33.1, rotation in G10, …) | **error naming the file, line and feature** |
 //!
-//! The tool starts at the configured position (the origin by default).
 //! Every point keeps its source line, and the feed of its block (or the
-//! rapid feed) as a cap.
+//! rapid feed) as a cap. Resources are bounded ([`Limits`]): point counts
+//! are checked before arcs and curves are expanded, executed lines and call
+//! depth are counted, so no input aborts, panics or runs without end.
 
 pub mod arc;
+pub mod comp;
+pub mod cycles;
+pub mod expr;
+pub mod interp;
 pub mod nurbs_block;
+pub mod parse;
+pub mod program;
+pub mod sink;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 
 use crate::toolpath::Toolpath;
-use arc::{Centre, Plane};
 
 /// How G-code is turned into a toolpath.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -41,8 +60,27 @@ pub struct GcodeSettings {
     pub chord_tolerance_mm: f64,
     /// Feed of G0 moves, mm/min (the paper's machine: 48 m/min, Table 1).
     pub rapid_feed_mm_per_min: f64,
-    /// Where the tool is when the program starts, mm.
+    /// Where the tool is when the program starts, machine coordinates, mm.
     pub start_mm: [f64; 3],
+    /// Skip lines starting with `/` (LinuxCNC's block delete switch).
+    pub block_delete: bool,
+    /// What to do with a move that drives A B C U V W (or an E word).
+    pub extra_axes: ExtraAxes,
+    /// Retract between pecks of G73/G83 without a D word, mm.
+    pub peck_clearance_mm: f64,
+    /// Tool loaded when the program starts (0: none).
+    pub initial_tool: u32,
+    /// Where `o<name> call` looks for `name.ngc` after the program's own
+    /// directory.
+    pub subroutine_dirs: Vec<PathBuf>,
+    /// G28 and G30 positions.
+    pub reference_positions: ReferencePositions,
+    /// G54-G59.3 offsets.
+    pub work_offsets: WorkOffsets,
+    /// The tool table.
+    pub tools: Vec<ToolEntry>,
+    /// Resource bounds.
+    pub limits: Limits,
 }
 
 impl Default for GcodeSettings {
@@ -51,322 +89,211 @@ impl Default for GcodeSettings {
             chord_tolerance_mm: 0.001,
             rapid_feed_mm_per_min: 48_000.0,
             start_mm: [0.0; 3],
+            block_delete: true,
+            extra_axes: ExtraAxes::Refuse,
+            peck_clearance_mm: 1.0,
+            initial_tool: 0,
+            subroutine_dirs: Vec::new(),
+            reference_positions: ReferencePositions::default(),
+            work_offsets: WorkOffsets::default(),
+            tools: Vec::new(),
+            limits: Limits::default(),
         }
     }
 }
 
-/// Modal state of the interpreter.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Motion {
-    Rapid,
-    Linear,
-    ArcCw,
-    ArcCcw,
-}
-
-struct State {
-    pos: [f64; 3],
-    mm_per_unit: f64,
-    absolute: bool,
-    arc_centre_absolute: bool,
-    plane: Plane,
-    motion: Option<Motion>,
-    feed_mm_per_min: Option<f64>,
-}
-
-/// One word of a block: letter, value (f64 from the source), 1-based line.
-#[derive(Clone, Copy, Debug)]
-struct Word {
-    letter: char,
-    value: f64,
-}
-
-/// The words of one block.
-struct Block {
-    line: u32,
-    g: Vec<(u32, u32)>, // (major, minor·10)
-    words: Vec<Word>,
-}
-
-impl Block {
-    fn get(&self, letter: char) -> Option<f64> {
-        self.words
-            .iter()
-            .find(|w| w.letter == letter)
-            .map(|w| w.value)
-    }
-}
-
-/// Read `value` from the source text of an argument (`X-1.25`), falling
-/// back to the crate's `f32`.
-fn word_value(src: &str, span: gcode::core::Span, fallback: f32) -> f64 {
-    src.get(span.start..span.start + span.length)
-        .and_then(|t| t.get(1..))
-        .and_then(|t| t.trim().parse::<f64>().ok())
-        .unwrap_or(fallback as f64)
-}
-
-fn words_of(src: &str, b: &gcode::Block) -> Result<Block> {
-    let line = b.span.line as u32 + 1;
-    let mut out = Block {
-        line,
-        g: Vec::new(),
-        words: Vec::new(),
-    };
-    let mut push = |letter: char, value: &gcode::Value, span| -> Result<()> {
-        let letter = letter.to_ascii_uppercase();
-        let v = match value {
-            gcode::Value::Literal(x) => word_value(src, span, *x),
-            gcode::Value::Variable(name) => {
-                bail!(
-                    "line {line}: parameter #{name} is not supported (no expressions or variables)"
-                )
-            }
-            _ => bail!("line {line}: unsupported value for {letter}"),
-        };
-        if !v.is_finite() {
-            bail!("line {line}: {letter} is not a finite number");
+impl GcodeSettings {
+    /// Check every value.
+    pub fn validate(&self) -> Result<()> {
+        anyhow::ensure!(
+            self.chord_tolerance_mm.is_finite() && self.chord_tolerance_mm >= 1e-9,
+            "gcode.chord_tolerance_mm must be ≥ 1e-9"
+        );
+        anyhow::ensure!(
+            self.rapid_feed_mm_per_min.is_finite()
+                && self.rapid_feed_mm_per_min > 0.0
+                && self.rapid_feed_mm_per_min <= 1e6,
+            "gcode.rapid_feed_mm_per_min must be in (0, 1e6]"
+        );
+        anyhow::ensure!(
+            self.peck_clearance_mm.is_finite() && self.peck_clearance_mm >= 0.0,
+            "gcode.peck_clearance_mm must be ≥ 0"
+        );
+        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite() && x.abs() <= 1e6);
+        anyhow::ensure!(
+            finite(&self.start_mm),
+            "gcode.start_mm must be finite, within ±1e6 mm"
+        );
+        anyhow::ensure!(
+            finite(&self.reference_positions.g28) && finite(&self.reference_positions.g30),
+            "gcode.reference_positions must be finite, within ±1e6 mm"
+        );
+        for (k, o) in self.work_offsets.all().iter().enumerate() {
+            anyhow::ensure!(
+                finite(o),
+                "gcode.work_offsets.{} must be finite, within ±1e6 mm",
+                WorkOffsets::NAMES[k]
+            );
         }
-        if out.words.iter().any(|w| w.letter == letter) {
-            bail!("line {line}: word {letter} appears twice");
+        for t in &self.tools {
+            anyhow::ensure!(
+                t.diameter_mm.is_finite() && t.diameter_mm >= 0.0 && t.diameter_mm <= 1e4,
+                "gcode.tools: tool {} diameter_mm must be in [0, 1e4]",
+                t.number
+            );
+            anyhow::ensure!(
+                t.length_mm.is_finite() && t.length_mm.abs() <= 1e4,
+                "gcode.tools: tool {} length_mm must be within ±1e4",
+                t.number
+            );
         }
-        out.words.push(Word { letter, value: v });
+        anyhow::ensure!(
+            (2..=1_000_000_000).contains(&self.limits.max_points),
+            "gcode.limits.max_points must be in [2, 1e9]"
+        );
+        anyhow::ensure!(
+            self.limits.max_call_depth >= 1 && self.limits.max_call_depth <= 1000,
+            "gcode.limits.max_call_depth must be in [1, 1000]"
+        );
         Ok(())
-    };
-    for code in &b.codes {
-        match code {
-            gcode::Code::General(g) => {
-                let minor = g.number.minor().map_or(0, |m| m.get());
-                out.g.push((g.number.major(), minor));
-                for a in &g.args {
-                    push(a.letter, &a.value, a.span)?;
-                }
-            }
-            gcode::Code::Miscellaneous(m) => {
-                // M words: documented skip (spindle, coolant, program end…);
-                // their arguments are ignored with them.
-                let _ = m;
-            }
-            gcode::Code::ToolChange(_) => {} // T: documented skip
-            _ => bail!("line {line}: unsupported code"),
+    }
+}
+
+/// Moves of axes beyond X Y Z.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ExtraAxes {
+    /// Refuse the move, naming the axis.
+    Refuse,
+    /// Keep X Y Z, drop the others.
+    Ignore,
+}
+
+/// G28 and G30 positions, machine coordinates, mm (X Y Z).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ReferencePositions {
+    /// G28 (#5161-5163).
+    pub g28: [f64; 3],
+    /// G30 (#5181-5183).
+    pub g30: [f64; 3],
+}
+
+/// Work offsets, mm (X Y Z): machine = program + offset.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+#[allow(missing_docs)]
+pub struct WorkOffsets {
+    pub g54: [f64; 3],
+    pub g55: [f64; 3],
+    pub g56: [f64; 3],
+    pub g57: [f64; 3],
+    pub g58: [f64; 3],
+    pub g59: [f64; 3],
+    pub g59_1: [f64; 3],
+    pub g59_2: [f64; 3],
+    pub g59_3: [f64; 3],
+}
+
+impl WorkOffsets {
+    /// Keys in order.
+    pub const NAMES: [&'static str; 9] = [
+        "g54", "g55", "g56", "g57", "g58", "g59", "g59_1", "g59_2", "g59_3",
+    ];
+
+    /// All nine, G54 first.
+    pub fn all(&self) -> [[f64; 3]; 9] {
+        [
+            self.g54, self.g55, self.g56, self.g57, self.g58, self.g59, self.g59_1, self.g59_2,
+            self.g59_3,
+        ]
+    }
+}
+
+/// One tool of the table.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ToolEntry {
+    /// T number.
+    pub number: u32,
+    /// Diameter, mm (cutter compensation uses half).
+    #[serde(default)]
+    pub diameter_mm: f64,
+    /// Length offset along Z for G43, mm.
+    #[serde(default)]
+    pub length_mm: f64,
+}
+
+/// Resource bounds of the reader.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Limits {
+    /// Most points in the toolpath (arcs and curves are checked before
+    /// they are expanded).
+    pub max_points: usize,
+    /// Most lines executed beyond the program's own line count (loops and
+    /// calls repeat lines).
+    pub max_executed_lines: u64,
+    /// Deepest nesting of O-word calls (LinuxCNC: 10).
+    pub max_call_depth: usize,
+}
+
+impl Default for Limits {
+    fn default() -> Self {
+        Limits {
+            max_points: 50_000_000,
+            max_executed_lines: 20_000_000,
+            max_call_depth: 10,
         }
     }
-    for w in &b.word_addresses {
-        push(w.letter, &w.value, w.span)?;
-    }
-    Ok(out)
+}
+
+/// Euclidean distance of the X Y Z parts, mm.
+fn dist3(a: &[f64; 9], b: &[f64; 9]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+}
+
+/// The points of a program before they become a [`Toolpath`] (a program
+/// may have no motion at all).
+#[derive(Debug)]
+pub struct Program {
+    /// Points, mm, the start first.
+    pub points: Vec<[f64; 3]>,
+    /// Feed caps, mm/min.
+    pub caps: Vec<Option<f64>>,
+    /// Source lines.
+    pub lines: Vec<u32>,
+}
+
+/// Run G-code text; `dir` is where its subroutine files are.
+pub fn run(src: &str, dir: Option<&Path>, settings: &GcodeSettings) -> Result<Program> {
+    settings.validate()?;
+    let mut it = interp::Interp::new(settings, dir.map(Path::to_path_buf))?;
+    it.load_main(src, None)?;
+    it.run()?;
+    Ok(Program {
+        points: it.out.points,
+        caps: it.out.caps,
+        lines: it.out.lines,
+    })
 }
 
 /// Parse G-code text; `name` labels the toolpath.
 pub fn parse(name: &str, src: &str, settings: &GcodeSettings) -> Result<Toolpath> {
-    let program = gcode::parse(src).map_err(|d| {
-        let first = d.iter().next();
-        match first {
-            Some(diag) => {
-                let line = diag.span.line + 1;
-                let text = src.lines().nth(diag.span.line).unwrap_or("").trim();
-                let hint = if text.contains('[') || text.contains('#') {
-                    " (expressions and parameters are not supported)"
-                } else {
-                    ""
-                };
-                anyhow!("line {line}: cannot parse {text:?}: {diag}{hint}")
-            }
-            None => anyhow!("cannot parse the program"),
-        }
-    })?;
-    let mut st = State {
-        pos: settings.start_mm,
-        mm_per_unit: 1.0,
-        absolute: true,
-        arc_centre_absolute: false,
-        plane: Plane::Xy,
-        motion: None,
-        feed_mm_per_min: None,
-    };
-    let mut points = vec![settings.start_mm];
-    let mut caps: Vec<Option<f64>> = vec![None];
-    let mut lines = vec![0u32];
-    let mut nurbs: Option<nurbs_block::Collector> = None;
-    for b in &program.blocks {
-        let blk = words_of(src, b)?;
-        let line = blk.line;
-        if let Some(c) = nurbs.as_mut() {
-            if blk.g.contains(&(5, 3)) {
-                let c = nurbs.take().unwrap_or_else(|| unreachable!());
-                let feed = st.feed_mm_per_min.ok_or_else(|| {
-                    anyhow!("line {line}: NURBS block without a feed (no F word yet)")
-                })?;
-                let pts = c.finish(settings.chord_tolerance_mm)?;
-                for p in pts {
-                    points.push(p);
-                    caps.push(Some(feed));
-                    lines.push(line);
-                }
-                st.pos = *points.last().unwrap_or(&st.pos);
-                continue;
-            }
-            if !blk.g.is_empty() {
-                bail!("line {line}: only control points (X Y P) may follow G5.2 until G5.3");
-            }
-            c.add(&st, &blk)?;
-            continue;
-        }
-        // Modal settings first (RS274/NGC order of execution).
-        let mut motion_word = None;
-        for &(g, m) in &blk.g {
-            match (g, m) {
-                (0, 0) => motion_word = Some(Motion::Rapid),
-                (1, 0) => motion_word = Some(Motion::Linear),
-                (2, 0) => motion_word = Some(Motion::ArcCw),
-                (3, 0) => motion_word = Some(Motion::ArcCcw),
-                (5, 2) => {
-                    if st.plane != Plane::Xy {
-                        bail!("line {line}: G5.2 needs the XY plane (G17)");
-                    }
-                    let mut c = nurbs_block::Collector::new(st.pos, line);
-                    c.add(&st, &blk)?;
-                    nurbs = Some(c);
-                }
-                (5, 3) => bail!("line {line}: G5.3 without G5.2"),
-                (17, 0) => st.plane = Plane::Xy,
-                (18, 0) => st.plane = Plane::Zx,
-                (19, 0) => st.plane = Plane::Yz,
-                (20, 0) => st.mm_per_unit = 25.4,
-                (21, 0) => st.mm_per_unit = 1.0,
-                (90, 0) => st.absolute = true,
-                (91, 0) => st.absolute = false,
-                (90, 1) => st.arc_centre_absolute = true,
-                (91, 1) => st.arc_centre_absolute = false,
-                // Documented skips (module docs).
-                (4, 0)
-                | (40, 0)
-                | (43, 0)
-                | (49, 0)
-                | (54..=59, _)
-                | (61, 0)
-                | (61, 1)
-                | (64, 0)
-                | (80, 0)
-                | (94, 0) => {}
-                (g, 0) => bail!("line {line}: G{g} is not supported"),
-                (g, m) => bail!("line {line}: G{g}.{m} is not supported"),
-            }
-        }
-        if nurbs.is_some() {
-            continue;
-        }
-        for w in &blk.words {
-            if !matches!(
-                w.letter,
-                'X' | 'Y'
-                    | 'Z'
-                    | 'I'
-                    | 'J'
-                    | 'K'
-                    | 'R'
-                    | 'F'
-                    | 'P'
-                    | 'S'
-                    | 'T'
-                    | 'H'
-                    | 'D'
-                    | 'L'
-                    | 'Q'
-            ) {
-                bail!("line {line}: word {} is not supported", w.letter);
-            }
-        }
-        if let Some(f) = blk.get('F') {
-            if f <= 0.0 {
-                bail!("line {line}: feed F{f} must be positive");
-            }
-            st.feed_mm_per_min = Some(f * st.mm_per_unit);
-        }
-        if let Some(m) = motion_word {
-            st.motion = Some(m);
-        }
-        let has_axis = ['X', 'Y', 'Z'].iter().any(|l| blk.get(*l).is_some());
-        let dwell = blk.g.contains(&(4, 0));
-        if !has_axis || dwell {
-            continue;
-        }
-        let Some(motion) = st.motion else {
-            bail!("line {line}: axis words without a motion mode (G0/G1/G2/G3)");
-        };
-        let mut target = st.pos;
-        for (k, l) in ['X', 'Y', 'Z'].iter().enumerate() {
-            if let Some(v) = blk.get(*l) {
-                let v = v * st.mm_per_unit;
-                target[k] = if st.absolute { v } else { st.pos[k] + v };
-            }
-        }
-        let cap = match motion {
-            Motion::Rapid => settings.rapid_feed_mm_per_min,
-            _ => st
-                .feed_mm_per_min
-                .ok_or_else(|| anyhow!("line {line}: feed move without a feed (no F word yet)"))?,
-        };
-        let new_points = match motion {
-            Motion::Rapid | Motion::Linear => vec![target],
-            Motion::ArcCw | Motion::ArcCcw => {
-                let centre = if let Some(r) = blk.get('R') {
-                    Centre::Radius(r * st.mm_per_unit)
-                } else {
-                    let mut c = if st.arc_centre_absolute {
-                        [0.0; 3]
-                    } else {
-                        st.pos
-                    };
-                    for (k, l) in ['I', 'J', 'K'].iter().enumerate() {
-                        if let Some(v) = blk.get(*l) {
-                            c[k] += v * st.mm_per_unit;
-                        } else if st.arc_centre_absolute {
-                            c[k] = st.pos[k];
-                        }
-                    }
-                    Centre::Point(c)
-                };
-                let turns = blk.get('P').map_or(Ok(0), |p| {
-                    if p >= 1.0 && p.fract() == 0.0 {
-                        Ok(p as u32 - 1)
-                    } else {
-                        Err(anyhow!("line {line}: arc P{p} must be a whole number ≥ 1"))
-                    }
-                })?;
-                arc::points(
-                    st.pos,
-                    target,
-                    centre,
-                    st.plane,
-                    motion == Motion::ArcCw,
-                    turns,
-                    settings.chord_tolerance_mm,
-                )
-                .map_err(|e| anyhow!("line {line}: {e}"))?
-            }
-        };
-        for p in new_points {
-            points.push(p);
-            caps.push(Some(cap));
-            lines.push(line);
-        }
-        st.pos = target;
-    }
-    if let Some(c) = nurbs {
-        bail!("line {}: G5.2 block not closed by G5.3", c.line());
-    }
-    Toolpath::new(name, points, caps, lines)
+    let p = run(src, None, settings)?;
+    Toolpath::new(name, p.points, p.caps, p.lines)
 }
 
 /// Read a G-code file; errors name the file and the line.
 pub fn read(path: &Path, settings: &GcodeSettings) -> Result<Toolpath> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    let text = String::from_utf8_lossy(&bytes);
     let name = path
         .file_stem()
         .map_or("gcode".into(), |s| s.to_string_lossy().into_owned());
-    parse(&name, &text, settings).with_context(|| format!("in {}", path.display()))
+    let p = run(&text, interp::program_dir(path).as_deref(), settings)
+        .with_context(|| format!("in {}", path.display()))?;
+    Toolpath::new(name, p.points, p.caps, p.lines).with_context(|| format!("in {}", path.display()))
 }
 
 #[cfg(test)]
@@ -422,13 +349,16 @@ mod tests {
     #[test]
     fn errors_name_the_line() {
         for (src, line) in [
-            ("G1 X1 F100\nG41 X2\n", "line 2"),
+            ("G1 X1 F100\nG76 X2\n", "line 2"),
             ("G0 X1\nG1 X2\n", "line 2"),
-            ("G1 X1 F100\n\nX[1+2]\n", "line 3"),
+            ("G1 X1 F100\n\nX[1+]\n", "line 3"),
             ("G1 X1 F100\nG3 X5 Y0 I1 J1\n", "line 2"),
             ("G1 F100 X1\nG5.2 X1 Y1 P1\nX2 Y2 P1\n", "line 2"),
-            ("G1 X#1 F100\n", "line 1"),
-            ("G1 X1 F100\nG28\n", "line 2"),
+            ("G1 X#<nope> F100\n", "line 1"),
+            ("G1 X1 F100\nG38.2 Z-5\n", "line 2"),
+            ("G1 X1 F100\nX[1/0]\n", "line 2"),
+            ("G1 X1 F100\nG1 B3\n", "line 2"),
+            ("G1 X1 F100\nG1 X2 E3\n", "line 2"),
         ] {
             let e = format!("{:#}", p(src).unwrap_err());
             assert!(e.contains(line), "{src:?}: {e}");

@@ -9,33 +9,35 @@
 //! Every operation truncates to 32 significant bits, so each step has a
 //! relative error below 2^-31 ≈ 4.7e-10. Only integer
 //! instructions are used, so the host and a Cortex-M give the same bits.
+//! Square roots are [`super::sqrt`]'s.
 //!
-//! `micromath` is deliberately not used here: its `sqrt` is a ~1e-3
-//! approximation, and this module needs ~1e-9 at the same cost.
+//! `micromath` is not used here: its `sqrt` is an approximation to about
+//! 1e-3, and the curvature needs about 1e-9.
 
 use core::cmp::Ordering;
 
-use crate::fixmath::{divlu, shl_u32_wide, shr_u64_low};
+use super::sqrt::{isqrt_norm, rsqrt_q31};
+use super::wide::{divlu, shl_u32_wide, shr_u64_low};
 
 /// A positive number `mant · 2^exp` (`mant` in `[2^31, 2^32)`, or zero).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) struct Sf {
+pub struct Sf {
     mant: u32,
     exp: i32,
 }
 
 impl Sf {
     /// Zero.
-    pub(crate) const ZERO: Sf = Sf { mant: 0, exp: 0 };
+    pub const ZERO: Sf = Sf { mant: 0, exp: 0 };
 
     /// `x · 2^exp`, truncated to 32 significant bits.
-    pub(crate) const fn from_u64_exp(x: u64, exp: i32) -> Sf {
+    pub const fn from_u64_exp(x: u64, exp: i32) -> Sf {
         Sf::from_u64_exp_inline(x, exp)
     }
 
     /// [`Self::from_u64_exp`], inlined into the caller (hot code).
     #[inline(always)]
-    pub(crate) const fn from_u64_exp_inline(x: u64, exp: i32) -> Sf {
+    pub const fn from_u64_exp_inline(x: u64, exp: i32) -> Sf {
         if x == 0 {
             return Sf::ZERO;
         }
@@ -53,7 +55,7 @@ impl Sf {
 
     /// [`Self::from_u64_exp_inline`] for a 32-bit `x` (one shift left).
     #[inline(always)]
-    pub(crate) const fn from_u32_exp_inline(x: u32, exp: i32) -> Sf {
+    pub const fn from_u32_exp_inline(x: u32, exp: i32) -> Sf {
         if x == 0 {
             return Sf::ZERO;
         }
@@ -65,23 +67,23 @@ impl Sf {
     }
 
     /// `x` as a soft float.
-    pub(crate) const fn from_u64(x: u64) -> Sf {
+    pub const fn from_u64(x: u64) -> Sf {
         Sf::from_u64_exp(x, 0)
     }
 
     /// [`Self::from_u64`], inlined into the caller (hot code).
     #[inline(always)]
-    pub(crate) const fn from_u64_inline(x: u64) -> Sf {
+    pub const fn from_u64_inline(x: u64) -> Sf {
         Sf::from_u64_exp_inline(x, 0)
     }
 
     /// Whether this is zero.
-    pub(crate) const fn is_zero(self) -> bool {
+    pub const fn is_zero(self) -> bool {
         self.mant == 0
     }
 
     /// `self · 2^k` (exact; zero stays a zero mantissa).
-    pub(crate) const fn scale2(self, k: i32) -> Sf {
+    pub const fn scale2(self, k: i32) -> Sf {
         Sf {
             mant: self.mant,
             exp: self.exp.saturating_add(k),
@@ -89,14 +91,14 @@ impl Sf {
     }
 
     /// Product, truncated (out of line: [`Self::mul_inline`] in hot code).
-    pub(crate) const fn mul(self, o: Sf) -> Sf {
+    pub const fn mul(self, o: Sf) -> Sf {
         self.mul_inline(o)
     }
 
     /// [`Self::mul`], inlined into the caller (the curvature's chain of
-    /// products: a call costs as much as the product on a Cortex-M4).
+    /// products: a call would cost about as much as the product).
     #[inline(always)]
-    pub(crate) const fn mul_inline(self, o: Sf) -> Sf {
+    pub const fn mul_inline(self, o: Sf) -> Sf {
         // A zero operand gives a zero mantissa (with some exponent), which
         // every operation reads as zero: no test needed here.
         let p = self.mant as u64 * o.mant as u64;
@@ -116,7 +118,7 @@ impl Sf {
     }
 
     /// Quotient, truncated; `None` when dividing by zero.
-    pub(crate) const fn div(self, o: Sf) -> Option<Sf> {
+    pub const fn div(self, o: Sf) -> Option<Sf> {
         if o.mant == 0 {
             return None;
         }
@@ -131,13 +133,13 @@ impl Sf {
     }
 
     /// Sum (both operands are positive), truncated.
-    pub(crate) const fn add(self, o: Sf) -> Sf {
+    pub const fn add(self, o: Sf) -> Sf {
         self.add_inline(o)
     }
 
     /// [`Self::add`], inlined into the caller (the curvature's hot path).
     #[inline(always)]
-    pub(crate) const fn add_inline(self, o: Sf) -> Sf {
+    pub const fn add_inline(self, o: Sf) -> Sf {
         if self.mant == 0 {
             return o;
         }
@@ -164,7 +166,7 @@ impl Sf {
     }
 
     /// Square root, correct to the last bit of the 32-bit mantissa.
-    pub(crate) const fn sqrt(self) -> Sf {
+    pub const fn sqrt(self) -> Sf {
         if self.mant == 0 {
             return Sf::ZERO;
         }
@@ -185,11 +187,12 @@ impl Sf {
     }
 
     /// `1/sqrt(self)` to about 2^-29 relative (Newton steps, truncated:
-    /// not correctly rounded, but ~6 times cheaper than [`Self::sqrt`] plus
-    /// [`Self::div`]); `None` for zero. Inlined: twice per point in the
-    /// curvature, where the call and the returned `Option` cost a sixth of it.
+    /// not correctly rounded, but much cheaper than [`Self::sqrt`] plus
+    /// [`Self::div`]: cost table in [`super`]); `None` for zero. Inlined:
+    /// the curvature calls it twice per point, and the `Option` then folds
+    /// away.
     #[inline(always)]
-    pub(crate) const fn rsqrt(self) -> Option<Sf> {
+    pub const fn rsqrt(self) -> Option<Sf> {
         if self.mant == 0 {
             return None;
         }
@@ -207,7 +210,7 @@ impl Sf {
 
     /// `self · 2^k` as an integer, rounded to nearest, saturating at
     /// `i64::MAX`.
-    pub(crate) const fn to_i64_scaled(self, k: i32) -> i64 {
+    pub const fn to_i64_scaled(self, k: i32) -> i64 {
         if self.mant == 0 {
             return 0;
         }
@@ -227,7 +230,7 @@ impl Sf {
     }
 
     /// Total order of positive values.
-    pub(crate) const fn cmp(self, o: Sf) -> Ordering {
+    pub const fn cmp(self, o: Sf) -> Ordering {
         match (self.mant == 0, o.mant == 0) {
             (true, true) => Ordering::Equal,
             (true, false) => Ordering::Less,
@@ -251,7 +254,7 @@ impl Sf {
     }
 
     /// The larger of two values.
-    pub(crate) const fn max(self, o: Sf) -> Sf {
+    pub const fn max(self, o: Sf) -> Sf {
         match self.cmp(o) {
             Ordering::Less => o,
             _ => self,
@@ -259,7 +262,7 @@ impl Sf {
     }
 
     /// The smaller of two values.
-    pub(crate) const fn min(self, o: Sf) -> Sf {
+    pub const fn min(self, o: Sf) -> Sf {
         match self.cmp(o) {
             Ordering::Greater => o,
             _ => self,
@@ -273,135 +276,12 @@ impl Sf {
     }
 }
 
-/// Initial estimates of `1/sqrt(a)` for `a = i/8 .. (i+1)/8`, `i` in `8..32`,
-/// in Q31 (the geometric mean of the bucket's end values; max error 3 %).
-const RSQRT_SEED_Q31: [u32; 24] = [
-    2085171282, 1972033243, 1875541541, 1791972647, 1718674801, 1653701088, 1595585333, 1543199410,
-    1495659153, 1452260424, 1412434550, 1375716544, 1341721986, 1310129921, 1280669981, 1253112579,
-    1227261320, 1202947073, 1180023296, 1158362288, 1137852195, 1118394560, 1099902330, 1082298212,
-];
-
-/// `1/sqrt(a/2^30)` in Q31 for `a` in `[2^30, 2^32)` (so in `(2^30, 2^31]`):
-/// three division-free Newton steps from [`RSQRT_SEED_Q31`]. The
-/// truncations leave it a few units (of 2^-31) low.
-#[inline(always)]
-const fn rsqrt_q31(a: u32) -> u32 {
-    let idx = (a >> 27) as usize; // 8..=31
-    let mut r: u32 = if idx >= 8 && idx < 32 {
-        RSQRT_SEED_Q31[idx - 8]
-    } else {
-        1 << 30
-    };
-    // Each product is one 32×32→64-bit multiplication: r, r², a·r² and
-    // (3 − a·r²)/2 all stay below 2^32 in Q31 once r is within 3 %.
-    let mut i = 0;
-    while i < 3 {
-        let r2 = ((r as u64 * r as u64) >> 31) as u32; // r² in Q31
-        let t = ((a as u64 * r2 as u64) >> 30) as u32; // a·r² in Q31, ≈ 2^31
-        let h = (3u32 << 30).wrapping_sub(t >> 1); // (3 − a·r²)/2 in Q31
-        r = ((r as u64 * h as u64) >> 31) as u32;
-        i += 1;
-    }
-    r
-}
-
-/// `floor(sqrt(n))` for `n` in `[2^62, 2^64)` (so the result is in
-/// `[2^31, 2^32)`): three division-free Newton steps on `1/sqrt`, then an
-/// exact correction. About 60 instructions on a Cortex-M4.
-const fn isqrt_norm(n: u64) -> u32 {
-    let a = (n >> 32) as u32; // a / 2^30 in [1, 4)
-    let r = rsqrt_q31(a);
-    // sqrt(a/2^30) = (a/2^30)·r, in Q31, equals sqrt(a·2^32) ≈ sqrt(n).
-    // Rounded: the truncations above leave r a few units low.
-    let s = (a as u64 * r as u64 + (3 << 29)) >> 30;
-    let mut s = if s > u32::MAX as u64 {
-        u32::MAX as u64
-    } else {
-        s
-    };
-    // Exact floor: s is within a few units of the answer (-3..=8 over
-    // random inputs). Step on the remainder d = n − s² (|d| < 2^40 here,
-    // exact in i64) with additions only: (s ± 1)² = s² ± (2s ± 1).
-    let mut d = n.wrapping_sub(s * s) as i64;
-    while d < 0 {
-        s -= 1;
-        d += (2 * s + 1) as i64;
-    }
-    while d >= (2 * s + 1) as i64 {
-        d -= (2 * s + 1) as i64;
-        s += 1;
-    }
-    s as u32
-}
-
-/// `floor(sqrt(n))` for any `u64` (tests the normalised root on every input).
-#[cfg(test)]
-pub(crate) const fn isqrt_u64(n: u64) -> u32 {
-    if n == 0 {
-        return 0;
-    }
-    let lz = n.leading_zeros() & !1; // even shift keeps the root exact
-    isqrt_norm(n << lz) >> (lz / 2)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    fn exact_isqrt(n: u64) -> u64 {
-        let mut s = (n as f64).sqrt() as u64;
-        while (s as u128) * (s as u128) > n as u128 {
-            s -= 1;
-        }
-        while ((s + 1) as u128) * ((s + 1) as u128) <= n as u128 {
-            s += 1;
-        }
-        s
-    }
-
-    #[test]
-    fn seed_table_matches_f64() {
-        for (k, &v) in RSQRT_SEED_Q31.iter().enumerate() {
-            let i = (k + 8) as f64;
-            let r = ((1.0 / (i / 8.0).sqrt()) * (1.0 / ((i + 1.0) / 8.0).sqrt())).sqrt();
-            assert!(((v as f64) / 2f64.powi(31) - r).abs() < 1e-9);
-        }
-    }
-
-    #[test]
-    fn isqrt_edges() {
-        for n in [
-            0u64,
-            1,
-            2,
-            3,
-            4,
-            15,
-            16,
-            17,
-            u32::MAX as u64,
-            1 << 62,
-            (1 << 62) - 1,
-            u64::MAX,
-            u64::MAX - 1,
-        ] {
-            assert_eq!(isqrt_u64(n) as u64, exact_isqrt(n), "n = {n}");
-        }
-        for k in 0..32u64 {
-            let s = 1u64 << k;
-            for n in [s * s - 1, s * s, s * s + 1] {
-                assert_eq!(isqrt_u64(n) as u64, exact_isqrt(n), "n = {n}");
-            }
-        }
-    }
-
     proptest! {
-        #[test]
-        fn isqrt_is_exact_floor(n in any::<u64>()) {
-            prop_assert_eq!(isqrt_u64(n) as u64, exact_isqrt(n));
-        }
-
         #[test]
         fn ops_track_f64(a in 1u64.., b in 1u64.., ea in -80i32..80, eb in -80i32..80) {
             let x = Sf::from_u64_exp(a, ea);

@@ -1,15 +1,15 @@
 //! Online contour error: the distance from the measured tool position to the
 //! commanded path, computed every interpolation tick without allocation, as
-//! Cho, Lee & Jeon's feed controller needs it (seed 004, section 2.2).
+//! Cho, Lee & Jeon's feed controller needs it (section 2.2).
 //!
 //! # The paper's model and ours
 //!
 //! Cho et al. take the contour-error model of Joo, Lee, Lee & Jeon (their
-//! ref. \[5\], in Korean, not among the seeds): "a variable size window is used
+//! ref. \[5\], in Korean, not available to us): "a variable size window is used
 //! to find two closest points between previous reference points and the
 //! current tool position. With these two points, we can determine the contour
 //! error by considering the geometrical relationship." The window's sizing
-//! rule is not in the seed. We implement the idea as a **variable window of
+//! rule is not in the paper. We implement the idea as a **variable window of
 //! path segments**:
 //!
 //! - the window holds the path's vertices from a few segments behind the
@@ -59,13 +59,17 @@
 //! coordinate limit, where the foot may slide 1.5 µm along the segment,
 //! changing the distance only to second order), i.e. within a few 2⁻³² mm.
 //! Per searched segment: about a dozen 128-bit multiplications and at most
-//! one 128-bit division; one 128-bit square root per tick. The window's capacity `N` is a const
-//! generic; on a Cortex-M4 the search costs a few hundred cycles per
-//! segment, so a window of tens of segments fits a 1 ms tick.
+//! one 128-bit division; one 128-bit square root per tick
+//! ([`isqrt_u128`]). The window's
+//! capacity `N` is a const generic; the search is linear in the segments
+//! the window holds. It runs on the host (host-sim's `cho` experiment);
+//! on the target the 128-bit root alone is expensive (the cost table in
+//! [`crate::numerics`]).
 
 use fixed::types::I32F32;
 use heapless::Deque;
 
+use crate::numerics::sqrt::isqrt_u128;
 use crate::units::Point3Mm;
 
 /// Why the contour error cannot be computed or a vertex cannot be taken.
@@ -203,7 +207,7 @@ impl<const N: usize> ContourTracker<N> {
         };
         if n == 1 {
             let d2 = dist2(v0, actual);
-            let d = I32F32::from_bits(d2.isqrt() as i64);
+            let d = I32F32::from_bits(isqrt_u128(d2) as i64);
             return Ok(ContourEstimate {
                 error: d,
                 distance: d,
@@ -230,7 +234,7 @@ impl<const N: usize> ContourTracker<N> {
         let (d2, seg, side) = best;
         self.anchor = self.first.saturating_add(seg as u32);
         self.prune();
-        let d = I32F32::from_bits(d2.isqrt() as i64);
+        let d = I32F32::from_bits(isqrt_u128(d2) as i64);
         Ok(ContourEstimate {
             error: if side < 0 { -d } else { d },
             distance: d,

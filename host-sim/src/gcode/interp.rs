@@ -1,0 +1,1764 @@
+//! The interpreter: runs a program's lines (O-word control flow, parameters)
+//! and turns each block into moves, in the order of execution of the
+//! RS274/NGC report (Kramer et al. 2000, §3.8, table 8) as LinuxCNC keeps it
+//! (`interp_execute.cc`, `execute_block`).
+//!
+//! Positions are kept in machine coordinates, mm, for nine axes
+//! (X Y Z A B C U V W). A program coordinate is the machine coordinate less
+//! the active work offset (G54-G59.3), the G92/G52 offset and the tool
+//! length offset (G43). Persistent data lives in the numbered parameters as
+//! in LinuxCNC (in mm, host-sim's machine unit): #5161-5169 the G28 position,
+//! #5181-5189 G30, #5210 and #5211-5219 the G92 offset, #5220 the active
+//! coordinate system, #5221+20·(n−1) … the offsets of system n; selecting a
+//! system reads its offsets from the parameters, as LinuxCNC does.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use anyhow::{anyhow, bail, Context, Result};
+
+use super::arc::{Centre, Plane};
+use super::comp::{Comp, Side};
+use super::cycles;
+use super::expr::{parameter_number, Params, MAX_PARAMETER};
+use super::nurbs_block::{self, Collector, Collector6};
+use super::parse::{Keyword, Label, Stmt};
+use super::program::{File, Jump};
+use super::sink::Sink;
+use super::{ExtraAxes, GcodeSettings};
+
+/// Axis letters in parameter order.
+pub const AXES: [char; 9] = ['X', 'Y', 'Z', 'A', 'B', 'C', 'U', 'V', 'W'];
+/// The phrase that marks a refusal no reader without a machine can avoid.
+pub const NEEDS_MACHINE: &str = "needs live machine state";
+
+const P_G28: usize = 5161;
+const P_G30: usize = 5181;
+const P_G92_ON: usize = 5210;
+const P_G92: usize = 5211;
+const P_COORD: usize = 5220;
+const P_G54: usize = 5221;
+
+/// Modal motion (group 1).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Motion {
+    /// G0.
+    Rapid,
+    /// G1.
+    Linear,
+    /// G2 (`true`) or G3.
+    Arc(bool),
+    /// G5 cubic spline.
+    Cubic,
+    /// G5.1 quadratic spline.
+    Quadratic,
+    /// G33 spindle-synchronised motion.
+    Thread,
+    /// A canned cycle: G73, G74, G81-G89 (code × 10).
+    Cycle(u32),
+}
+
+impl Motion {
+    fn code(self) -> f64 {
+        match self {
+            Motion::Rapid => 0.0,
+            Motion::Linear => 10.0,
+            Motion::Arc(true) => 20.0,
+            Motion::Arc(false) => 30.0,
+            Motion::Cubic => 50.0,
+            Motion::Quadratic => 51.0,
+            Motion::Thread => 330.0,
+            Motion::Cycle(c) => c as f64,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum FeedMode {
+    PerMinute,
+    InverseTime,
+    PerRev,
+}
+
+/// The evaluated words of a block.
+pub struct Blk {
+    /// Source line.
+    pub line: u32,
+    /// G codes as (major, tenths).
+    pub g: Vec<(u32, u32)>,
+    /// M codes.
+    pub m: Vec<u32>,
+    /// Other words by letter (`A` = 0).
+    pub w: [Option<f64>; 26],
+    /// Polar radius `@` and angle `^` (degrees).
+    pub polar: [Option<f64>; 2],
+}
+
+impl Blk {
+    /// The value of word `c`.
+    pub fn get(&self, c: char) -> Option<f64> {
+        let i = (c as u8).wrapping_sub(b'A') as usize;
+        self.w.get(i).copied().flatten()
+    }
+
+    fn has_g(&self, major: u32, minor: u32) -> bool {
+        self.g.contains(&(major, minor))
+    }
+
+    fn has_axis(&self) -> bool {
+        AXES.iter().any(|&a| self.get(a).is_some()) || self.polar.iter().any(Option::is_some)
+    }
+}
+
+/// Canned-cycle state kept between blocks of one cycle mode.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct CycleState {
+    /// Normal-axis position when the cycle mode began (G98's level), mm.
+    pub initial_level: Option<f64>,
+    /// Sticky R, Z (normal axis), P, Q, I, J, K values (program units).
+    pub r: Option<f64>,
+    /// Sticky depth.
+    pub z: Option<f64>,
+    /// Sticky dwell.
+    pub p: Option<f64>,
+    /// Sticky peck.
+    pub q: Option<f64>,
+    /// Sticky G87 offsets.
+    pub ijk: [Option<f64>; 3],
+}
+
+struct Frame {
+    file: usize,
+    pc: usize,
+    call: Option<CallInfo>,
+    locals: HashMap<String, f64>,
+    repeats: HashMap<usize, i64>,
+}
+
+struct CallInfo {
+    label: Label,
+    saved: [f64; 30],
+    modal: Option<Modal>,
+}
+
+/// Modal state saved by M70/M73 (LinuxCNC `save_settings`).
+#[derive(Clone)]
+struct Modal {
+    units: f64,
+    absolute: bool,
+    arc_absolute: bool,
+    plane: Plane,
+    feed: Option<f64>,
+    feed_mode: FeedMode,
+    coord: usize,
+    retract_r: bool,
+    diameter_mode: bool,
+}
+
+/// A tool of the table.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ToolData {
+    /// Radius, mm.
+    pub radius_mm: f64,
+    /// Length offset (Z), mm.
+    pub length_mm: f64,
+}
+
+/// The interpreter's state.
+pub struct Interp<'s> {
+    pub(super) s: &'s GcodeSettings,
+    /// Machine position, mm (rotary axes in degrees).
+    pub pos: [f64; 9],
+    /// mm per program unit (1 or 25.4).
+    pub units: f64,
+    pub(super) absolute: bool,
+    arc_absolute: bool,
+    /// Selected plane.
+    pub plane: Plane,
+    pub(super) motion: Option<Motion>,
+    feed: Option<f64>,
+    feed_mode: FeedMode,
+    rpm: f64,
+    css: bool,
+    coord: usize,
+    work: [f64; 9],
+    g92: [f64; 9],
+    tlo: [f64; 9],
+    tools: HashMap<u32, ToolData>,
+    current_tool: u32,
+    selected_tool: u32,
+    diameter_mode: bool,
+    /// G99 (retract to R) instead of G98.
+    pub retract_r: bool,
+    /// Canned-cycle state.
+    pub cycle: CycleState,
+    comp: Comp,
+    spline_prev: Option<[f64; 2]>,
+    nurbs: Option<Collector>,
+    nurbs6: Option<Collector6>,
+    params: Vec<f64>,
+    globals: HashMap<String, f64>,
+    frames: Vec<Frame>,
+    files: Vec<File>,
+    subs: HashMap<Label, (usize, usize)>,
+    dir: Option<PathBuf>,
+    saved_modal: Option<Modal>,
+    value: f64,
+    value_returned: bool,
+    line: u32,
+    executed: u64,
+    /// The path so far.
+    pub out: Sink,
+}
+
+impl Params for Interp<'_> {
+    fn number(&self, n: u32) -> Result<f64> {
+        Ok(self.params.get(n as usize).copied().unwrap_or(0.0))
+    }
+
+    fn named(&self, name: &str) -> Result<f64> {
+        if let Some(v) = self.predefined(name)? {
+            return Ok(v);
+        }
+        let found = if name.starts_with('_') {
+            self.globals.get(name)
+        } else {
+            self.frames.last().and_then(|f| f.locals.get(name))
+        };
+        found
+            .copied()
+            .ok_or_else(|| anyhow!("parameter #<{name}> is read before it is set"))
+    }
+
+    fn exists(&self, name: &str) -> bool {
+        matches!(self.predefined(name), Ok(Some(_)))
+            || if name.starts_with('_') {
+                self.globals.contains_key(name)
+            } else {
+                self.frames
+                    .last()
+                    .is_some_and(|f| f.locals.contains_key(name))
+            }
+    }
+}
+
+fn truth(b: bool) -> f64 {
+    if b {
+        1.0
+    } else {
+        0.0
+    }
+}
+
+impl<'s> Interp<'s> {
+    /// A fresh machine for `settings`; `dir` is where `o<name> call` looks
+    /// for `name.ngc` first.
+    pub fn new(s: &'s GcodeSettings, dir: Option<PathBuf>) -> Result<Self> {
+        let mut params = vec![0.0; MAX_PARAMETER as usize + 1];
+        for (k, off) in s.work_offsets.all().iter().enumerate() {
+            for (i, v) in off.iter().enumerate() {
+                params[P_G54 + 20 * k + i] = *v;
+            }
+        }
+        for (i, v) in s.reference_positions.g28.iter().enumerate() {
+            params[P_G28 + i] = *v;
+        }
+        for (i, v) in s.reference_positions.g30.iter().enumerate() {
+            params[P_G30 + i] = *v;
+        }
+        params[P_COORD] = 1.0;
+        let mut tools = HashMap::new();
+        for t in &s.tools {
+            tools.insert(
+                t.number,
+                ToolData {
+                    radius_mm: t.diameter_mm / 2.0,
+                    length_mm: t.length_mm,
+                },
+            );
+        }
+        let mut pos = [0.0; 9];
+        pos[..3].copy_from_slice(&s.start_mm);
+        let mut it = Interp {
+            s,
+            pos,
+            units: 1.0,
+            absolute: true,
+            arc_absolute: false,
+            plane: Plane::Xy,
+            motion: None,
+            feed: None,
+            feed_mode: FeedMode::PerMinute,
+            rpm: 0.0,
+            css: false,
+            coord: 0,
+            work: [0.0; 9],
+            g92: [0.0; 9],
+            tlo: [0.0; 9],
+            tools,
+            current_tool: s.initial_tool,
+            selected_tool: s.initial_tool,
+            diameter_mode: false,
+            retract_r: false,
+            cycle: CycleState::default(),
+            comp: Comp::default(),
+            spline_prev: None,
+            nurbs: None,
+            nurbs6: None,
+            params,
+            globals: HashMap::new(),
+            frames: Vec::new(),
+            files: Vec::new(),
+            subs: HashMap::new(),
+            dir,
+            saved_modal: None,
+            value: 0.0,
+            value_returned: false,
+            line: 0,
+            executed: 0,
+            out: Sink::new(s.start_mm, s.limits.max_points, s.chord_tolerance_mm),
+        };
+        it.select_coord(0);
+        Ok(it)
+    }
+
+    fn select_coord(&mut self, k: usize) {
+        self.coord = k;
+        self.params[P_COORD] = (k + 1) as f64;
+        for i in 0..9 {
+            self.work[i] = self.params[P_G54 + 20 * k + i];
+        }
+    }
+
+    /// Offset from program to machine coordinates of axis `i`, mm.
+    fn offset(&self, i: usize) -> f64 {
+        self.work[i] + self.g92[i] + self.tlo[i]
+    }
+
+    fn axis_scale(&self, i: usize) -> f64 {
+        if (3..6).contains(&i) {
+            1.0 // degrees
+        } else {
+            self.units
+        }
+    }
+
+    /// Program coordinate of axis `i`, mm (offsets removed, no diameter
+    /// mode).
+    pub(super) fn program_mm(&self, i: usize) -> f64 {
+        self.pos[i] - self.offset(i)
+    }
+
+    /// Program coordinate of axis `i` (program units).
+    fn program(&self, i: usize) -> f64 {
+        let v = (self.pos[i] - self.offset(i)) / self.axis_scale(i);
+        if i == 0 && self.diameter_mode {
+            2.0 * v
+        } else {
+            v
+        }
+    }
+
+    fn predefined(&self, name: &str) -> Result<Option<f64>> {
+        if let Some(rest) = name.strip_prefix("_abs_") {
+            if let Some(i) = AXES
+                .iter()
+                .position(|a| a.to_ascii_lowercase().to_string() == rest)
+            {
+                return Ok(Some(self.pos[i] / self.axis_scale(i)));
+            }
+        }
+        if name.starts_with("_hal[") || name.starts_with("_ini[") {
+            bail!("#<{name}> {NEEDS_MACHINE} (a HAL pin or INI value of a running LinuxCNC)");
+        }
+        let v = match name {
+            "_x" | "_y" | "_z" | "_a" | "_b" | "_c" | "_u" | "_v" | "_w" => {
+                let c = name.as_bytes()[1].to_ascii_uppercase() as char;
+                let i = AXES.iter().position(|&a| a == c).unwrap_or(0);
+                self.program(i)
+            }
+            "_line" => self.line as f64,
+            "_motion_mode" => self.motion.map_or(800.0, |m| m.code()),
+            "_plane" => match self.plane {
+                Plane::Xy => 170.0,
+                Plane::Zx => 180.0,
+                Plane::Yz => 190.0,
+            },
+            "_ccomp" => match self.comp.side() {
+                None => 400.0,
+                Some(Side::Left) => 410.0,
+                Some(Side::Right) => 420.0,
+            },
+            "_metric" => truth(self.units == 1.0),
+            "_imperial" => truth(self.units != 1.0),
+            "_absolute" => truth(self.absolute),
+            "_incremental" => truth(!self.absolute),
+            "_inverse_time" => truth(self.feed_mode == FeedMode::InverseTime),
+            "_units_per_minute" => truth(self.feed_mode == FeedMode::PerMinute),
+            "_units_per_rev" => truth(self.feed_mode == FeedMode::PerRev),
+            "_coord_system" => [
+                540.0, 550.0, 560.0, 570.0, 580.0, 590.0, 591.0, 592.0, 593.0,
+            ][self.coord.min(8)],
+            "_tool_offset" => truth(self.tlo.iter().any(|v| *v != 0.0)),
+            "_retract_r_plane" => truth(self.retract_r),
+            "_retract_old_z" => truth(!self.retract_r),
+            "_spindle_rpm_mode" => truth(!self.css),
+            "_spindle_css_mode" => truth(self.css),
+            "_ijk_absolute_mode" => truth(self.arc_absolute),
+            "_lathe_diameter_mode" => truth(self.diameter_mode),
+            "_lathe_radius_mode" => truth(!self.diameter_mode),
+            "_spindle_on" | "_spindle_cw" | "_mist" | "_flood" | "_feed_hold" => 0.0,
+            "_speed_override" | "_feed_override" | "_adaptive_feed" => 0.0,
+            "_feed" => self.feed.unwrap_or(0.0),
+            "_rpm" => self.rpm,
+            "_current_tool" | "_current_pocket" => self.current_tool as f64,
+            "_selected_tool" | "_selected_pocket" => self.selected_tool as f64,
+            "_value" => self.value,
+            "_value_returned" => truth(self.value_returned),
+            "_call_level" => self.frames.len().saturating_sub(1) as f64,
+            "_remap_level" => 0.0,
+            // Running in task (not a preview): programs that skip work in
+            // previews behave as on the machine.
+            "_task" => 1.0,
+            "_vmajor" => 2.9,
+            "_vminor" => 0.0,
+            _ => return Ok(None),
+        };
+        Ok(Some(v))
+    }
+
+    /// Load the main program.
+    pub fn load_main(&mut self, src: &str, path: Option<PathBuf>) -> Result<()> {
+        let f = File::parse(src, path)?;
+        for (label, &i) in &f.subs {
+            self.subs.insert(label.clone(), (0, i));
+        }
+        self.files.push(f);
+        Ok(())
+    }
+
+    /// Run the program to its end (M2, M30, a closing `%`, or the last line).
+    pub fn run(&mut self) -> Result<()> {
+        self.frames.push(Frame {
+            file: 0,
+            pc: 0,
+            call: None,
+            locals: HashMap::new(),
+            repeats: HashMap::new(),
+        });
+        let source_lines: u64 = self.files.iter().map(|f| f.lines.len() as u64).sum();
+        let bound = self
+            .s
+            .limits
+            .max_executed_lines
+            .saturating_add(source_lines);
+        let mut percent_seen = false;
+        let mut any_content = false;
+        while let Some(fr) = self.frames.last() {
+            let (fi, pc) = (fr.file, fr.pc);
+            let Some(l) = self.files[fi].lines.get(pc) else {
+                if self.frames.len() > 1 {
+                    let label = self
+                        .frames
+                        .last()
+                        .and_then(|f| f.call.as_ref().map(|c| c.label.clone()));
+                    bail!(
+                        "{}: the file ended inside subroutine {}",
+                        self.where_(fi),
+                        label.map_or(String::new(), |l| l.to_string())
+                    );
+                }
+                break;
+            };
+            let line = l.number;
+            self.line = line;
+            self.executed += 1;
+            if self.executed > bound {
+                bail!(
+                    "line {line}: stopped after executing {} lines (gcode.limits.max_executed_lines = {} beyond the program's own {source_lines}): an endless O-word loop?",
+                    self.executed - 1,
+                    self.s.limits.max_executed_lines
+                );
+            }
+            if let Some(f) = self.frames.last_mut() {
+                f.pc += 1;
+            }
+            let stmt = l.stmt.clone();
+            let block_delete = l.block_delete;
+            let r = match &stmt {
+                Stmt::Percent => {
+                    if percent_seen || any_content {
+                        break;
+                    }
+                    percent_seen = true;
+                    Ok(true)
+                }
+                Stmt::OWord {
+                    label,
+                    keyword,
+                    args,
+                } => {
+                    any_content = true;
+                    self.oword(fi, pc, label, *keyword, args).map(|()| true)
+                }
+                Stmt::Block {
+                    words,
+                    assigns,
+                    abort,
+                } => {
+                    if block_delete && self.s.block_delete {
+                        Ok(true)
+                    } else {
+                        if !words.is_empty() || !assigns.is_empty() {
+                            any_content = true;
+                        }
+                        self.block(line, words, assigns, abort.as_deref())
+                    }
+                }
+            };
+            match r {
+                Ok(true) => {}
+                Ok(false) => break, // program end
+                Err(e) => {
+                    let e = if e.to_string().starts_with("line ") {
+                        e
+                    } else {
+                        e.context(format!("line {line}"))
+                    };
+                    if fi > 0 {
+                        return Err(e.context(self.where_(fi)));
+                    }
+                    return Err(e);
+                }
+            }
+        }
+        self.finish(self.line)
+    }
+
+    fn where_(&self, fi: usize) -> String {
+        match &self.files[fi].path {
+            Some(p) => format!("in subroutine file {}", p.display()),
+            None => "in the program".into(),
+        }
+    }
+
+    /// End of program: close open curves and compensation.
+    fn finish(&mut self, line: u32) -> Result<()> {
+        if let Some(c) = &self.nurbs {
+            bail!("line {}: G5.2 block not closed by G5.3", c.line());
+        }
+        if self.nurbs6.is_some() {
+            bail!("line {line}: G6.2 block not completed by its closing knots");
+        }
+        self.comp.flush(&mut self.out, line)
+    }
+
+    // ----- O-words -----
+
+    fn eval_args(&self, args: &[super::expr::Expr]) -> Result<Vec<f64>> {
+        args.iter().map(|a| a.eval(self)).collect()
+    }
+
+    fn jump(&self, fi: usize, pc: usize) -> Result<Jump> {
+        self.files[fi]
+            .jumps
+            .get(&pc)
+            .copied()
+            .ok_or_else(|| anyhow!("O-word structure not found"))
+    }
+
+    fn goto(&mut self, pc: usize) {
+        if let Some(f) = self.frames.last_mut() {
+            f.pc = pc;
+        }
+    }
+
+    fn oword(
+        &mut self,
+        fi: usize,
+        pc: usize,
+        label: &Label,
+        kw: Keyword,
+        args: &[super::expr::Expr],
+    ) -> Result<()> {
+        match kw {
+            Keyword::Sub => {
+                let Jump::SubEnd(end) = self.jump(fi, pc)? else {
+                    bail!("{label} sub without its endsub");
+                };
+                self.goto(end + 1);
+            }
+            Keyword::EndSub | Keyword::Return => {
+                let v = self.eval_args(args)?;
+                self.ret(label, kw == Keyword::EndSub, v.first().copied())?;
+            }
+            Keyword::Call => {
+                let v = self.eval_args(args)?;
+                self.call(label, &v)?;
+            }
+            Keyword::If => {
+                let mut at = pc;
+                let mut cond = self.eval_args(args)?[0] != 0.0;
+                loop {
+                    let Jump::Branch { next, end } = self.jump(fi, at)? else {
+                        bail!("{label} if without its endif");
+                    };
+                    if cond {
+                        self.goto(at + 1);
+                        break;
+                    }
+                    if next == end {
+                        self.goto(end + 1);
+                        break;
+                    }
+                    match &self.files[fi].lines[next].stmt {
+                        Stmt::OWord {
+                            keyword: Keyword::ElseIf,
+                            args,
+                            ..
+                        } => {
+                            let args = args.clone();
+                            cond = self.eval_args(&args)?[0] != 0.0;
+                            at = next;
+                        }
+                        _ => {
+                            // else
+                            self.goto(next + 1);
+                            break;
+                        }
+                    }
+                }
+            }
+            Keyword::ElseIf | Keyword::Else => {
+                // Reached after a taken branch: leave the structure.
+                let end = match self.jump(fi, pc)? {
+                    Jump::Branch { end, .. } | Jump::Else { end } => end,
+                    _ => bail!("{label} {} out of place", kw.name()),
+                };
+                self.goto(end + 1);
+            }
+            Keyword::EndIf | Keyword::Do => {}
+            Keyword::While => match self.jump(fi, pc)? {
+                Jump::LoopStart { end } => {
+                    if self.eval_args(args)?[0] == 0.0 {
+                        self.goto(end + 1);
+                    }
+                }
+                Jump::LoopEnd { start } => {
+                    if self.eval_args(args)?[0] != 0.0 {
+                        self.goto(start + 1);
+                    }
+                }
+                _ => bail!("{label} while out of place"),
+            },
+            Keyword::EndWhile => {
+                let Jump::LoopEnd { start } = self.jump(fi, pc)? else {
+                    bail!("{label} endwhile out of place");
+                };
+                self.goto(start);
+            }
+            Keyword::Repeat => {
+                let Jump::LoopStart { end } = self.jump(fi, pc)? else {
+                    bail!("{label} repeat without its endrepeat");
+                };
+                let n = self.eval_args(args)?[0];
+                if !n.is_finite() {
+                    bail!("{label} repeat count {n} is not a number");
+                }
+                let n = n.round().clamp(-1.0, i64::MAX as f64) as i64;
+                if n <= 0 {
+                    self.goto(end + 1);
+                } else if let Some(f) = self.frames.last_mut() {
+                    f.repeats.insert(pc, n);
+                }
+            }
+            Keyword::EndRepeat => {
+                let Jump::LoopEnd { start } = self.jump(fi, pc)? else {
+                    bail!("{label} endrepeat out of place");
+                };
+                if let Some(f) = self.frames.last_mut() {
+                    let left = f.repeats.get(&start).copied().unwrap_or(1) - 1;
+                    if left > 0 {
+                        f.repeats.insert(start, left);
+                        f.pc = start + 1;
+                    } else {
+                        f.repeats.remove(&start);
+                    }
+                }
+            }
+            Keyword::Break | Keyword::Continue => {
+                let Jump::InLoop { start } = self.jump(fi, pc)? else {
+                    bail!("{label} {} outside a loop", kw.name());
+                };
+                let Jump::LoopStart { end } = self.jump(fi, start)? else {
+                    bail!("{label} loop without its end");
+                };
+                let opener = self.files[fi].oword(start).map(|(_, k)| k);
+                if kw == Keyword::Break {
+                    if let Some(f) = self.frames.last_mut() {
+                        f.repeats.remove(&start);
+                    }
+                    self.goto(end + 1);
+                } else {
+                    match opener {
+                        Some(Keyword::While) => self.goto(start),
+                        // do … while and repeat: their closing line decides.
+                        _ => self.goto(end),
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn find_sub(&mut self, label: &Label) -> Result<(usize, usize)> {
+        if let Some(&at) = self.subs.get(label) {
+            return Ok(at);
+        }
+        let Label::Name(name) = label else {
+            bail!("{label} call: no {label} sub in the program");
+        };
+        let mut dirs: Vec<PathBuf> = self.dir.iter().cloned().collect();
+        dirs.extend(self.s.subroutine_dirs.iter().cloned());
+        for d in &dirs {
+            let p = d.join(format!("{name}.ngc"));
+            if p.is_file() {
+                let text = std::fs::read_to_string(&p)
+                    .with_context(|| format!("reading {}", p.display()))?;
+                let f = File::parse(&text, Some(p.clone()))
+                    .with_context(|| format!("in subroutine file {}", p.display()))?;
+                let fi = self.files.len();
+                if !f.subs.contains_key(label) {
+                    bail!("{label} call: {} does not define {label} sub", p.display());
+                }
+                for (l, &i) in &f.subs {
+                    self.subs.entry(l.clone()).or_insert((fi, i));
+                }
+                self.files.push(f);
+                return self
+                    .subs
+                    .get(label)
+                    .copied()
+                    .ok_or_else(|| anyhow!("{label} not found"));
+            }
+        }
+        bail!(
+            "{label} call: no {label} sub in the program, and no {name}.ngc in {} (gcode.subroutine_dirs)",
+            if dirs.is_empty() {
+                "any directory".to_string()
+            } else {
+                dirs.iter()
+                    .map(|d| d.display().to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            }
+        )
+    }
+
+    fn call(&mut self, label: &Label, args: &[f64]) -> Result<()> {
+        let (fi, at) = self.find_sub(label)?;
+        let depth = self.frames.len();
+        if depth > self.s.limits.max_call_depth {
+            bail!(
+                "{label} call: more than gcode.limits.max_call_depth = {} nested calls (endless recursion?)",
+                self.s.limits.max_call_depth
+            );
+        }
+        let mut saved = [0.0; 30];
+        saved.copy_from_slice(&self.params[1..=30]);
+        for i in 0..30 {
+            self.params[1 + i] = args.get(i).copied().unwrap_or(0.0);
+        }
+        self.value_returned = false;
+        self.frames.push(Frame {
+            file: fi,
+            pc: at + 1,
+            call: Some(CallInfo {
+                label: label.clone(),
+                saved,
+                modal: None,
+            }),
+            locals: HashMap::new(),
+            repeats: HashMap::new(),
+        });
+        Ok(())
+    }
+
+    fn ret(&mut self, label: &Label, endsub: bool, value: Option<f64>) -> Result<()> {
+        let Some(f) = self.frames.last() else {
+            bail!("{label} return outside a call");
+        };
+        let Some(c) = &f.call else {
+            bail!("{label} return or endsub reached outside a call");
+        };
+        if endsub && &c.label != label {
+            bail!("{label} return inside {} sub", c.label);
+        }
+        let f = self.frames.pop().unwrap_or_else(|| unreachable!());
+        let c = f.call.unwrap_or_else(|| unreachable!());
+        self.params[1..=30].copy_from_slice(&c.saved);
+        if let Some(m) = c.modal {
+            self.restore(&m)?;
+        }
+        self.value = value.unwrap_or(0.0);
+        self.value_returned = value.is_some();
+        Ok(())
+    }
+
+    fn modal(&self) -> Modal {
+        Modal {
+            units: self.units,
+            absolute: self.absolute,
+            arc_absolute: self.arc_absolute,
+            plane: self.plane,
+            feed: self.feed,
+            feed_mode: self.feed_mode,
+            coord: self.coord,
+            retract_r: self.retract_r,
+            diameter_mode: self.diameter_mode,
+        }
+    }
+
+    fn restore(&mut self, m: &Modal) -> Result<()> {
+        self.units = m.units;
+        self.absolute = m.absolute;
+        self.arc_absolute = m.arc_absolute;
+        self.plane = m.plane;
+        self.feed = m.feed;
+        self.feed_mode = m.feed_mode;
+        if m.coord != self.coord {
+            self.select_coord(m.coord);
+        }
+        self.retract_r = m.retract_r;
+        self.diameter_mode = m.diameter_mode;
+        Ok(())
+    }
+
+    // ----- blocks -----
+
+    /// Evaluate and execute one block; `false` ends the program.
+    fn block(
+        &mut self,
+        line: u32,
+        words: &[super::parse::Word],
+        assigns: &[(super::expr::ParamRef, super::expr::Expr)],
+        abort: Option<&str>,
+    ) -> Result<bool> {
+        if let Some(msg) = abort {
+            bail!("line {line}: the program aborts here: (abort, {msg})");
+        }
+        let mut b = Blk {
+            line,
+            g: Vec::new(),
+            m: Vec::new(),
+            w: [None; 26],
+            polar: [None; 2],
+        };
+        for w in words {
+            let v = w
+                .value
+                .eval(self)
+                .map_err(|e| anyhow!("line {line}: {}: {e:#}", w.letter))?;
+            if !v.is_finite() {
+                bail!("line {line}: {} is not a finite number", w.letter);
+            }
+            match w.letter {
+                'G' => {
+                    let t = (v * 10.0).round();
+                    if (v * 10.0 - t).abs() > 1e-6 || !(0.0..=9999.0).contains(&t) {
+                        bail!("line {line}: G{v} is not a G-code");
+                    }
+                    let (major, minor) = (t as u32 / 10, t as u32 % 10);
+                    if b.g.contains(&(major, minor)) {
+                        bail!("line {line}: G{v} appears twice");
+                    }
+                    b.g.push((major, minor));
+                }
+                'M' => {
+                    if v.fract() != 0.0 || !(0.0..=1000.0).contains(&v) {
+                        bail!("line {line}: M{v} is not an M-code");
+                    }
+                    b.m.push(v as u32);
+                }
+                '$' => {
+                    if v.fract() != 0.0 || v < -1.0 {
+                        bail!("line {line}: spindle ${v} is not a spindle number");
+                    }
+                }
+                '@' | '^' => {
+                    let k = usize::from(w.letter == '^');
+                    if b.polar[k].is_some() {
+                        bail!("line {line}: word {} appears twice", w.letter);
+                    }
+                    b.polar[k] = Some(v);
+                }
+                c => {
+                    let i = (c as u8 - b'A') as usize;
+                    if b.w[i].is_some() {
+                        bail!("line {line}: word {c} appears twice");
+                    }
+                    b.w[i] = Some(v);
+                }
+            }
+        }
+        // Assignments take effect after the line's values are read.
+        let mut sets = Vec::with_capacity(assigns.len());
+        for (p, e) in assigns {
+            let v = e.eval(self).map_err(|e| anyhow!("line {line}: {e:#}"))?;
+            let target = match p {
+                super::expr::ParamRef::Number(n) => {
+                    let n =
+                        parameter_number(n.eval(self)?).map_err(|e| anyhow!("line {line}: {e}"))?;
+                    Err(n)
+                }
+                super::expr::ParamRef::Named(s) => Ok(s.clone()),
+            };
+            sets.push((target, v));
+        }
+        for (t, v) in sets {
+            match t {
+                Err(n) => self.params[n as usize] = v,
+                Ok(name) => {
+                    if self.predefined(&name).ok().flatten().is_some() {
+                        bail!("line {line}: #<{name}> is read-only");
+                    }
+                    if name.starts_with('_') {
+                        self.globals.insert(name, v);
+                    } else if let Some(f) = self.frames.last_mut() {
+                        f.locals.insert(name, v);
+                    }
+                }
+            }
+        }
+        if b.g.is_empty() && b.m.is_empty() && b.w.iter().all(Option::is_none) {
+            return Ok(true);
+        }
+        self.execute(&b)
+    }
+
+    fn check_letters(&self, b: &Blk) -> Result<()> {
+        if b.get('E').is_some() && self.s.extra_axes == ExtraAxes::Refuse {
+            bail!(
+                "line {}: word E (a 3D printer's extruder) is not a milling axis; set gcode.extra_axes = \"ignore\" to read X Y Z and drop it",
+                b.line
+            );
+        }
+        Ok(())
+    }
+
+    fn execute(&mut self, b: &Blk) -> Result<bool> {
+        let line = b.line;
+        self.check_letters(b)?;
+        // Curve blocks in progress take their continuation lines.
+        if self.nurbs.is_some() {
+            return self.nurbs_line(b).map(|()| true);
+        }
+        if self.nurbs6.is_some() && (b.g.is_empty() || b.has_g(6, 2)) && b.m.is_empty() {
+            return self.nurbs6_line(b).map(|()| true);
+        }
+        if self.nurbs6.is_some() {
+            bail!("line {line}: G6.2 block not completed by its closing knots before this line");
+        }
+        // Classify G codes.
+        let mut motion_word: Option<Motion> = None;
+        let mut nonmodal: Option<(u32, u32)> = None;
+        let mut g53 = false;
+        let mut set_motion = |m: Motion, b: &Blk| -> Result<()> {
+            if motion_word.is_some() {
+                bail!("line {}: two motion codes in one block", b.line);
+            }
+            motion_word = Some(m);
+            Ok(())
+        };
+        for &(g, m) in &b.g {
+            match (g, m) {
+                (0, 0) => set_motion(Motion::Rapid, b)?,
+                (1, 0) => set_motion(Motion::Linear, b)?,
+                (2, 0) => set_motion(Motion::Arc(true), b)?,
+                (3, 0) => set_motion(Motion::Arc(false), b)?,
+                (5, 0) => set_motion(Motion::Cubic, b)?,
+                (5, 1) => set_motion(Motion::Quadratic, b)?,
+                (33, 0) => set_motion(Motion::Thread, b)?,
+                (73, 0) | (74, 0) | (81..=89, 0) => set_motion(Motion::Cycle(g * 10), b)?,
+                (4, 0)
+                | (10, 0)
+                | (28, 0)
+                | (28, 1)
+                | (30, 0)
+                | (30, 1)
+                | (52, 0)
+                | (92, 0)
+                | (92, 1)
+                | (92, 2)
+                | (92, 3) => {
+                    if let Some(o) = nonmodal {
+                        bail!("line {line}: G{} and G{g}.{m} in one block", o.0);
+                    }
+                    nonmodal = Some((g, m));
+                }
+                (53, 0) => g53 = true,
+                (5, 2) | (5, 3) | (6, 2) | (80, 0) => {}
+                (17, 0) | (18, 0) | (19, 0) | (20, 0) | (21, 0) | (7, 0) | (8, 0) => {}
+                (40, 0) | (41, 0) | (42, 0) | (41, 1) | (42, 1) => {}
+                (43, 0) | (43, 1) | (43, 2) | (49, 0) => {}
+                (54..=58, 0) | (59, 0..=3) => {}
+                (61, 0) | (61, 1) | (64, 0) => {}
+                (90, 0) | (91, 0) | (90, 1) | (91, 1) | (93, 0) | (94, 0) | (95, 0) => {}
+                (96, 0) | (97, 0) | (98, 0) | (99, 0) => {}
+                (38, _) => {
+                    bail!("line {line}: G38.{m} probing {NEEDS_MACHINE} (where the probe trips)")
+                }
+                (76, 0) => bail!("line {line}: G76 threading cycle is not supported"),
+                (70..=72, _) => bail!("line {line}: G{g} lathe contour cycle is not supported"),
+                (33, 1) => bail!("line {line}: G33.1 rigid tapping is not supported"),
+                (17..=19, 1) => bail!("line {line}: G{g}.1 planes (UV, WU, VW) are not supported"),
+                (g, 0) => bail!("line {line}: G{g} is not supported"),
+                (g, m) => bail!("line {line}: G{g}.{m} is not supported"),
+            }
+        }
+        // Order of execution (Kramer et al. table 8).
+        if b.has_g(93, 0) {
+            self.feed_mode = FeedMode::InverseTime;
+        }
+        if b.has_g(94, 0) {
+            self.feed_mode = FeedMode::PerMinute;
+        }
+        if b.has_g(95, 0) {
+            self.feed_mode = FeedMode::PerRev;
+        }
+        if let Some(f) = b.get('F') {
+            if f < 0.0 {
+                bail!("line {line}: feed F{f} is negative");
+            }
+            self.feed = Some(f);
+        }
+        if let Some(s) = b.get('S') {
+            if s < 0.0 {
+                bail!("line {line}: spindle speed S{s} is negative");
+            }
+            self.rpm = s;
+        }
+        if let Some(t) = b.get('T') {
+            if t < 0.0 || t.fract() != 0.0 {
+                bail!("line {line}: tool T{t} is not a whole number ≥ 0");
+            }
+            self.selected_tool = t as u32;
+        }
+        for &m in &b.m {
+            match m {
+                6 => self.current_tool = self.selected_tool,
+                61 => {
+                    let q = b
+                        .get('Q')
+                        .ok_or_else(|| anyhow!("line {line}: M61 needs a Q word"))?;
+                    if q < 0.0 || q.fract() != 0.0 {
+                        bail!("line {line}: M61 Q{q} is not a tool number");
+                    }
+                    self.current_tool = q as u32;
+                    self.selected_tool = q as u32;
+                }
+                0 | 1 | 2 | 30 | 60 => {}
+                3 | 4 | 5 | 19 | 7 | 8 | 9 | 48..=53 => {}
+                62..=65 | 67 | 68 => {}
+                66 => bail!("line {line}: M66 (wait for an input) {NEEDS_MACHINE}"),
+                70 => self.saved_modal = Some(self.modal()),
+                71 => self.saved_modal = None,
+                72 => {
+                    let m = self
+                        .saved_modal
+                        .clone()
+                        .ok_or_else(|| anyhow!("line {line}: M72 without a state saved by M70"))?;
+                    self.restore(&m)?;
+                }
+                73 => {
+                    let m = self.modal();
+                    match self.frames.last_mut().and_then(|f| f.call.as_mut()) {
+                        Some(c) => c.modal = Some(m),
+                        None => bail!("line {line}: M73 outside a subroutine"),
+                    }
+                }
+                100..=199 => {
+                    bail!("line {line}: M{m} runs a user program on the machine: {NEEDS_MACHINE}")
+                }
+                m => bail!("line {line}: M{m} is not supported"),
+            }
+        }
+        if b.has_g(4, 0) && b.get('P').is_none() {
+            bail!("line {line}: G4 dwell without a P word");
+        }
+        for &(g, m) in &b.g {
+            match (g, m) {
+                (17, 0) => self.plane = Plane::Xy,
+                (18, 0) => self.plane = Plane::Zx,
+                (19, 0) => self.plane = Plane::Yz,
+                (20, 0) => self.units = 25.4,
+                (21, 0) => self.units = 1.0,
+                (7, 0) => self.diameter_mode = true,
+                (8, 0) => self.diameter_mode = false,
+                (96, 0) => self.css = true,
+                (97, 0) => self.css = false,
+                _ => {}
+            }
+        }
+        // Cutter compensation.
+        if b.has_g(40, 0) {
+            self.comp.off(&mut self.out, line)?;
+        }
+        for (g, m, side) in [
+            (41, 0, Side::Left),
+            (42, 0, Side::Right),
+            (41, 1, Side::Left),
+            (42, 1, Side::Right),
+        ] {
+            if b.has_g(g, m) {
+                if self.plane != Plane::Xy {
+                    bail!("line {line}: cutter compensation outside the XY plane (G17) is not supported");
+                }
+                let radius = if m == 1 {
+                    b.get('D').ok_or_else(|| {
+                        anyhow!("line {line}: G{g}.1 needs a D word (the diameter)")
+                    })? * self.units
+                        / 2.0
+                } else {
+                    let t = match b.get('D') {
+                        Some(d) if d >= 0.0 && d.fract() == 0.0 => d as u32,
+                        Some(d) => bail!("line {line}: D{d} is not a tool number"),
+                        None => self.current_tool,
+                    };
+                    match self.tools.get(&t) {
+                        Some(td) => td.radius_mm,
+                        None if t == 0 => 0.0,
+                        None => bail!(
+                            "line {line}: G{g}: tool {t} is not in the tool table (gcode.tools)"
+                        ),
+                    }
+                };
+                if radius < 0.0 {
+                    bail!("line {line}: cutter compensation with a negative radius");
+                }
+                self.comp.on(side, radius, line)?;
+            }
+        }
+        // Tool length offset.
+        if b.has_g(49, 0) {
+            self.tlo = [0.0; 9];
+        }
+        if b.has_g(43, 0) || b.has_g(43, 2) {
+            let t = match b.get('H') {
+                Some(h) if h >= 0.0 && h.fract() == 0.0 => h as u32,
+                Some(h) => bail!("line {line}: H{h} is not a tool number"),
+                None => self.current_tool,
+            };
+            let len = match self.tools.get(&t) {
+                Some(td) => td.length_mm,
+                None if t == 0 => 0.0,
+                None => bail!("line {line}: G43: tool {t} is not in the tool table (gcode.tools)"),
+            };
+            if b.has_g(43, 0) {
+                self.tlo = [0.0; 9];
+            }
+            self.tlo[2] += len;
+        }
+        if b.has_g(43, 1) {
+            self.tlo = [0.0; 9];
+            for (i, a) in AXES.iter().enumerate() {
+                if let Some(v) = b.get(*a) {
+                    self.tlo[i] = v * self.axis_scale(i);
+                }
+            }
+        }
+        // Coordinate system.
+        for &(g, m) in &b.g {
+            let k = match (g, m) {
+                (54..=58, 0) => (g - 54) as usize,
+                (59, 0) => 5,
+                (59, 1..=3) => 5 + m as usize,
+                _ => continue,
+            };
+            if self.comp.side().is_some() {
+                bail!("line {line}: changing the coordinate system with cutter compensation on");
+            }
+            self.select_coord(k);
+        }
+        // Distance modes, retract mode.
+        for &(g, m) in &b.g {
+            match (g, m) {
+                (90, 0) => self.absolute = true,
+                (91, 0) => self.absolute = false,
+                (90, 1) => self.arc_absolute = true,
+                (91, 1) => self.arc_absolute = false,
+                (98, 0) => self.retract_r = false,
+                (99, 0) => self.retract_r = true,
+                _ => {}
+            }
+        }
+        // Non-modal codes that use axis words.
+        if let Some((g, m)) = nonmodal {
+            if motion_word.is_some() && b.has_axis() && g != 4 {
+                bail!("line {line}: G{g} and a motion code both use the axis words");
+            }
+            self.nonmodal(b, g, m)?;
+        }
+        if b.has_g(80, 0) {
+            if motion_word.is_some() {
+                bail!("line {line}: G80 and a motion code in one block");
+            }
+            if b.has_axis() && nonmodal.is_none() {
+                bail!("line {line}: G80 with axis words");
+            }
+            self.motion = None;
+            self.cycle = CycleState::default();
+        }
+        if b.has_g(5, 3) {
+            bail!("line {line}: G5.3 without G5.2");
+        }
+        if b.has_g(5, 2) {
+            if motion_word.is_some() {
+                bail!("line {line}: G5.2 and a motion code in one block");
+            }
+            self.comp_check(line, "G5.2")?;
+            let start = [self.pos[0], self.pos[1], self.pos[2]];
+            self.nurbs = Some(Collector::new(start, self.plane, line));
+            self.nurbs_line(b)?;
+            return Ok(true);
+        }
+        if b.has_g(6, 2) {
+            self.comp_check(line, "G6.2")?;
+            let p = b
+                .get('P')
+                .ok_or_else(|| anyhow!("line {line}: G6.2 needs the order P on its first line"))?;
+            self.nurbs6 = Some(Collector6::new(p, line)?);
+            self.nurbs6_line(b)?;
+            return Ok(true);
+        }
+        // Motion.
+        let axis_words_used = nonmodal.is_some_and(|(g, _)| g != 4);
+        if let Some(m) = motion_word {
+            if let (Some(Motion::Cycle(_)), false) = (self.motion, matches!(m, Motion::Cycle(_))) {
+                self.cycle = CycleState::default();
+            }
+            if self.motion != Some(m) {
+                if let Motion::Cycle(_) = m {
+                    self.cycle.initial_level = None;
+                }
+            }
+            self.motion = Some(m);
+        }
+        if b.has_axis() && !axis_words_used {
+            let Some(m) = self.motion else {
+                bail!("line {line}: axis words without a motion mode (G0/G1/G2/G3)");
+            };
+            if g53 && !matches!(m, Motion::Rapid | Motion::Linear) {
+                bail!("line {line}: G53 needs G0 or G1");
+            }
+            if g53 && !self.absolute {
+                bail!("line {line}: G53 in incremental mode (G91)");
+            }
+            self.motion_block(b, m, g53)?;
+        }
+        if b.m.iter().any(|&m| m == 2 || m == 30) {
+            return Ok(false);
+        }
+        Ok(true)
+    }
+
+    fn comp_check(&self, line: u32, what: &str) -> Result<()> {
+        if self.comp.side().is_some() {
+            bail!("line {line}: {what} with cutter compensation on is not supported");
+        }
+        Ok(())
+    }
+
+    fn nonmodal(&mut self, b: &Blk, g: u32, m: u32) -> Result<()> {
+        let line = b.line;
+        match (g, m) {
+            (4, 0) => {}
+            (28, 0) | (30, 0) => {
+                self.comp_check(line, &format!("G{g}"))?;
+                let base = if g == 28 { P_G28 } else { P_G30 };
+                if b.has_axis() {
+                    let mid = self.target(b, false)?;
+                    self.move_to(mid, None, line)?;
+                    let mut end = self.pos;
+                    for (i, a) in AXES.iter().enumerate() {
+                        if b.get(*a).is_some() {
+                            end[i] = self.params[base + i];
+                        }
+                    }
+                    self.move_to(end, None, line)?;
+                } else {
+                    let mut end = self.pos;
+                    for (i, e) in end.iter_mut().enumerate() {
+                        *e = self.params[base + i];
+                    }
+                    self.move_to(end, None, line)?;
+                }
+            }
+            (28, 1) | (30, 1) => {
+                let base = if g == 28 { P_G28 } else { P_G30 };
+                for i in 0..9 {
+                    self.params[base + i] = self.pos[i];
+                }
+            }
+            (92, 0) => {
+                if !b.has_axis() {
+                    if b.get('E').is_some() && self.s.extra_axes == ExtraAxes::Ignore {
+                        return Ok(()); // `G92 E0`: an extruder reset, dropped
+                    }
+                    bail!("line {line}: G92 without axis words");
+                }
+                for (i, a) in AXES.iter().enumerate() {
+                    if let Some(v) = b.get(*a) {
+                        let v = if i == 0 && self.diameter_mode {
+                            v / 2.0
+                        } else {
+                            v
+                        };
+                        self.g92[i] =
+                            self.pos[i] - self.work[i] - self.tlo[i] - v * self.axis_scale(i);
+                    }
+                }
+                self.store_g92();
+            }
+            (52, 0) => {
+                for (i, a) in AXES.iter().enumerate() {
+                    if let Some(v) = b.get(*a) {
+                        self.g92[i] = v * self.axis_scale(i);
+                    }
+                }
+                self.store_g92();
+            }
+            (92, 1) => {
+                self.g92 = [0.0; 9];
+                self.store_g92();
+                self.params[P_G92_ON] = 0.0;
+            }
+            (92, 2) => self.g92 = [0.0; 9],
+            (92, 3) => {
+                for i in 0..9 {
+                    self.g92[i] = self.params[P_G92 + i];
+                }
+            }
+            (10, 0) => self.g10(b)?,
+            _ => {}
+        }
+        Ok(())
+    }
+
+    fn store_g92(&mut self) {
+        for i in 0..9 {
+            self.params[P_G92 + i] = self.g92[i];
+        }
+        self.params[P_G92_ON] = truth(self.g92.iter().any(|v| *v != 0.0));
+    }
+
+    fn g10(&mut self, b: &Blk) -> Result<()> {
+        let line = b.line;
+        let l = b
+            .get('L')
+            .ok_or_else(|| anyhow!("line {line}: G10 needs an L word"))?;
+        let p = b
+            .get('P')
+            .ok_or_else(|| anyhow!("line {line}: G10 needs a P word"))?;
+        if p.fract() != 0.0 || p < 0.0 {
+            bail!("line {line}: G10 P{p} is not a whole number");
+        }
+        match l as u32 {
+            2 | 20 => {
+                if !(0.0..=9.0).contains(&p) {
+                    bail!("line {line}: G10 L{l} P{p}: coordinate systems are P0 (active) to P9");
+                }
+                if b.get('R').is_some_and(|r| r != 0.0) {
+                    bail!("line {line}: coordinate-system rotation (G10 R) is not supported");
+                }
+                let k = if p == 0.0 { self.coord } else { p as usize - 1 };
+                for (i, a) in AXES.iter().enumerate() {
+                    if let Some(v) = b.get(*a) {
+                        let v = if i == 0 && self.diameter_mode {
+                            v / 2.0
+                        } else {
+                            v
+                        };
+                        let mm = v * self.axis_scale(i);
+                        self.params[P_G54 + 20 * k + i] = if l as u32 == 2 {
+                            mm
+                        } else {
+                            self.pos[i] - self.g92[i] - self.tlo[i] - mm
+                        };
+                    }
+                }
+                if k == self.coord {
+                    self.select_coord(k);
+                }
+            }
+            1 | 10 | 11 => {
+                let t = self.tools.entry(p as u32).or_default();
+                if let Some(r) = b.get('R') {
+                    t.radius_mm = r * self.units;
+                }
+                if let Some(z) = b.get('Z') {
+                    t.length_mm = if l as u32 == 1 {
+                        z * self.units
+                    } else {
+                        // The length that makes the current Z read `z`.
+                        self.pos[2] - self.work[2] - self.g92[2] - z * self.units
+                    };
+                }
+            }
+            _ => bail!("line {line}: G10 L{l} is not supported"),
+        }
+        Ok(())
+    }
+
+    /// The machine target of a block's axis words.
+    pub(super) fn target(&self, b: &Blk, g53: bool) -> Result<[f64; 9]> {
+        let mut t = self.pos;
+        if b.polar.iter().any(Option::is_some) {
+            // LinuxCNC's polar words (`find_ends`): radius and angle about
+            // the program origin in the XY plane; G91 adds to the current
+            // radius and angle.
+            let line = b.line;
+            if self.plane != Plane::Xy || g53 {
+                bail!("line {line}: polar coordinates (@ ^) need the XY plane and no G53");
+            }
+            if b.get('X').is_some() || b.get('Y').is_some() {
+                bail!("line {line}: polar coordinates (@ ^) with X or Y");
+            }
+            let (x, y) = (self.program(0), self.program(1));
+            let (r0, a0) = (x.hypot(y), y.atan2(x).to_degrees());
+            let (r, a) = if self.absolute {
+                (b.polar[0].unwrap_or(r0), b.polar[1].unwrap_or(a0))
+            } else {
+                (
+                    r0 + b.polar[0].unwrap_or(0.0),
+                    a0 + b.polar[1].unwrap_or(0.0),
+                )
+            };
+            let (s, c) = a.to_radians().sin_cos();
+            t[0] = r * c * self.units + self.offset(0);
+            t[1] = r * s * self.units + self.offset(1);
+        }
+        for (i, a) in AXES.iter().enumerate() {
+            if let Some(v) = b.get(*a) {
+                let v = if i == 0 && self.diameter_mode {
+                    v / 2.0
+                } else {
+                    v
+                };
+                let mm = v * self.axis_scale(i);
+                t[i] = if g53 {
+                    mm
+                } else if self.absolute {
+                    mm + self.offset(i)
+                } else {
+                    self.pos[i] + mm
+                };
+            }
+        }
+        Ok(t)
+    }
+
+    /// The feed cap of a feed move of `length_mm`, mm/min.
+    pub(super) fn feed_cap(&self, line: u32, length_mm: f64) -> Result<f64> {
+        let f = self
+            .feed
+            .filter(|f| *f > 0.0)
+            .ok_or_else(|| anyhow!("line {line}: feed move without a feed (no F word yet)"))?;
+        let cap = match self.feed_mode {
+            FeedMode::PerMinute => f * self.units,
+            FeedMode::InverseTime => f * length_mm,
+            FeedMode::PerRev => {
+                if self.css {
+                    bail!("line {line}: feed per revolution (G95) under constant surface speed (G96) {NEEDS_MACHINE} (the spindle speed follows the radius)");
+                }
+                if self.rpm <= 0.0 {
+                    bail!("line {line}: feed per revolution (G95) without a spindle speed (S)");
+                }
+                f * self.units * self.rpm
+            }
+        };
+        Ok(cap.min(1e6))
+    }
+
+    fn check_extra_axes(&self, target: &[f64; 9], line: u32) -> Result<()> {
+        if self.s.extra_axes == ExtraAxes::Ignore {
+            return Ok(());
+        }
+        for i in 3..9 {
+            if (target[i] - self.pos[i]).abs() > 1e-9 {
+                bail!(
+                    "line {line}: the move drives the {} axis; host-sim's toolpath has X Y Z only (set gcode.extra_axes = \"ignore\" to keep X Y Z and drop A B C U V W)",
+                    AXES[i]
+                );
+            }
+        }
+        Ok(())
+    }
+
+    /// A straight move to `target` (rapid when `cap` is `None`),
+    /// uncompensated.
+    pub(super) fn move_to(&mut self, target: [f64; 9], cap: Option<f64>, line: u32) -> Result<()> {
+        self.check_extra_axes(&target, line)?;
+        let cap = Some(cap.unwrap_or(self.s.rapid_feed_mm_per_min));
+        self.out
+            .push([target[0], target[1], target[2]], cap, line)?;
+        self.pos = target;
+        Ok(())
+    }
+
+    /// A straight feed move of a canned cycle.
+    pub(super) fn feed_to(&mut self, target: [f64; 9], line: u32) -> Result<()> {
+        let len = super::dist3(&self.pos, &target);
+        let cap = self.feed_cap(line, len)?;
+        self.move_to(target, Some(cap), line)
+    }
+
+    fn motion_block(&mut self, b: &Blk, m: Motion, g53: bool) -> Result<()> {
+        let line = b.line;
+        let target = self.target(b, g53)?;
+        match m {
+            Motion::Rapid | Motion::Linear | Motion::Thread => {
+                self.check_extra_axes(&target, line)?;
+                let cap = match m {
+                    Motion::Rapid => None,
+                    Motion::Thread => {
+                        let k = b
+                            .get('K')
+                            .ok_or_else(|| anyhow!("line {line}: G33 needs the pitch K"))?;
+                        if self.rpm <= 0.0 {
+                            bail!("line {line}: G33 without a spindle speed (S)");
+                        }
+                        Some((k.abs() * self.units * self.rpm).min(1e6))
+                    }
+                    _ => Some(self.feed_cap(line, super::dist3(&self.pos, &target))?),
+                };
+                let cap_mm = cap.unwrap_or(self.s.rapid_feed_mm_per_min);
+                let to = [target[0], target[1], target[2]];
+                if self.comp.side().is_some() && !g53 {
+                    self.comp.line(&mut self.out, to, cap_mm, line)?;
+                } else {
+                    self.comp.flush(&mut self.out, line)?;
+                    self.out.push(to, Some(cap_mm), line)?;
+                }
+                self.pos = target;
+                self.spline_prev = None;
+            }
+            Motion::Arc(cw) => {
+                self.check_extra_axes(&target, line)?;
+                let (a, bb, _) = self.plane.axes();
+                let centre = if let Some(r) = b.get('R') {
+                    Centre::Radius(r * self.units)
+                } else {
+                    let mut c = [0.0; 3];
+                    let ijk = [b.get('I'), b.get('J'), b.get('K')];
+                    for k in 0..3 {
+                        c[k] = match (ijk[k], self.arc_absolute) {
+                            (Some(v), false) => self.pos[k] + v * self.units,
+                            (Some(v), true) => v * self.units + self.offset(k),
+                            (None, _) => self.pos[k],
+                        };
+                    }
+                    if ijk[a].is_none() && ijk[bb].is_none() {
+                        bail!("line {line}: arc without R or an offset (I J K) in the plane");
+                    }
+                    Centre::Point(c)
+                };
+                let turns = match b.get('P') {
+                    None => 0.0,
+                    Some(p) if p >= 1.0 && p.fract() == 0.0 => p - 1.0,
+                    Some(p) => bail!("line {line}: arc P{p} must be a whole number ≥ 1"),
+                };
+                let to = [target[0], target[1], target[2]];
+                // Length for inverse-time feed: estimated from the chord and
+                // turns (exact length is known only after expansion).
+                let approx_len = super::dist3(&self.pos, &target).max(1e-9);
+                let cap = self.feed_cap(line, approx_len)?;
+                if self.comp.side().is_some() {
+                    self.comp
+                        .arc(&mut self.out, to, centre, cw, turns, cap, line)?;
+                } else {
+                    self.comp.flush(&mut self.out, line)?;
+                    self.out
+                        .arc(to, centre, self.plane, cw, turns, Some(cap), line)?;
+                }
+                self.pos = target;
+                self.spline_prev = None;
+            }
+            Motion::Cubic | Motion::Quadratic => {
+                if self.plane != Plane::Xy {
+                    bail!("line {line}: G5/G5.1 splines need the XY plane (G17)");
+                }
+                self.comp_check(line, "a G5 spline")?;
+                self.check_extra_axes(&target, line)?;
+                let p0 = [self.pos[0], self.pos[1], self.pos[2]];
+                let p3 = [target[0], target[1], target[2]];
+                let ij = match (b.get('I'), b.get('J')) {
+                    (None, None) => match (m, self.spline_prev) {
+                        (Motion::Cubic, Some(pq)) => [-pq[0], -pq[1]],
+                        _ => bail!("line {line}: the first G5 (and every G5.1) needs I and J"),
+                    },
+                    (i, j) => [i.unwrap_or(0.0) * self.units, j.unwrap_or(0.0) * self.units],
+                };
+                let p1 = [p0[0] + ij[0], p0[1] + ij[1], p0[2]];
+                let pts = if m == Motion::Cubic {
+                    let pq = [
+                        b.get('P')
+                            .ok_or_else(|| anyhow!("line {line}: G5 needs P and Q"))?
+                            * self.units,
+                        b.get('Q')
+                            .ok_or_else(|| anyhow!("line {line}: G5 needs P and Q"))?
+                            * self.units,
+                    ];
+                    self.spline_prev = Some(pq);
+                    let p2 = [p3[0] + pq[0], p3[1] + pq[1], p3[2]];
+                    nurbs_block::bezier(
+                        &[p0, p1, p2, p3],
+                        self.s.chord_tolerance_mm,
+                        self.out.room(),
+                    )
+                } else {
+                    self.spline_prev = None;
+                    nurbs_block::bezier(&[p0, p1, p3], self.s.chord_tolerance_mm, self.out.room())
+                }
+                .map_err(|e| anyhow!("line {line}: spline {e}"))?;
+                let cap = self.feed_cap(line, super::dist3(&self.pos, &target))?;
+                for p in pts {
+                    self.out.push(p, Some(cap), line)?;
+                }
+                self.pos = target;
+            }
+            Motion::Cycle(code) => {
+                self.comp_check(line, "a canned cycle")?;
+                cycles::run(self, b, code)?;
+            }
+        }
+        Ok(())
+    }
+
+    fn nurbs_line(&mut self, b: &Blk) -> Result<()> {
+        let line = b.line;
+        let Some(c) = self.nurbs.as_ref() else {
+            return Ok(());
+        };
+        let plane = c.plane();
+        if b.has_g(5, 3) {
+            let c = self.nurbs.take().unwrap_or_else(|| unreachable!());
+            let cap = self.feed_cap(line, 0.0)?;
+            let pts = c.finish(self.s.chord_tolerance_mm, self.out.room())?;
+            let last = *pts
+                .last()
+                .unwrap_or(&[self.pos[0], self.pos[1], self.pos[2]]);
+            for p in pts {
+                self.out.push(p, Some(cap), line)?;
+            }
+            self.pos[..3].copy_from_slice(&last);
+            return Ok(());
+        }
+        if b.g.iter().any(|g| *g != (5, 2)) || !b.m.is_empty() {
+            bail!("line {line}: only control points may follow G5.2 until G5.3");
+        }
+        let (a, bb, _) = plane.axes();
+        let allowed = [AXES[a], AXES[bb], 'P', 'L', 'F'];
+        for (i, v) in b.w.iter().enumerate() {
+            let ch = (b'A' + i as u8) as char;
+            if v.is_some() && !allowed.contains(&ch) {
+                bail!("line {line}: word {ch} is not allowed in a NURBS block");
+            }
+        }
+        if let Some(f) = b.get('F') {
+            self.feed = Some(f);
+        }
+        if b.get(AXES[a]).is_none() && b.get(AXES[bb]).is_none() {
+            if b.g.is_empty() && b.w.iter().all(Option::is_none) {
+                return Ok(());
+            }
+            if b.has_g(5, 2) {
+                // `G5.2 P L` alone: the start point's weight and the order.
+                if let Some(c) = self.nurbs.as_mut() {
+                    c.set_start(b.get('P'), b.get('L'), line)?;
+                }
+                return Ok(());
+            }
+            bail!(
+                "line {line}: a NURBS control point needs {} or {}",
+                AXES[a],
+                AXES[bb]
+            );
+        }
+        let last = c.last();
+        let mut p = last;
+        for k in [a, bb] {
+            if let Some(v) = b.get(AXES[k]) {
+                let mm = v * self.units;
+                p[k] = if self.absolute {
+                    mm + self.offset(k)
+                } else {
+                    last[k] + mm
+                };
+            }
+        }
+        let (pw, lw) = (b.get('P'), b.get('L'));
+        if let Some(c) = self.nurbs.as_mut() {
+            c.add(p, pw, lw, line)?;
+        }
+        Ok(())
+    }
+
+    fn nurbs6_line(&mut self, b: &Blk) -> Result<()> {
+        let line = b.line;
+        let (a, bb, _) = self.plane.axes();
+        for (i, v) in b.w.iter().enumerate() {
+            let ch = (b'A' + i as u8) as char;
+            if v.is_some() && ![AXES[a], AXES[bb], 'P', 'Q', 'R', 'K', 'F'].contains(&ch) {
+                bail!("line {line}: word {ch} is not allowed in a G6.2 block");
+            }
+        }
+        if b.w.iter().all(Option::is_none) {
+            return Ok(());
+        }
+        if let Some(f) = b.get('F') {
+            self.feed = Some(f);
+        }
+        let k = b
+            .get('K')
+            .ok_or_else(|| anyhow!("line {line}: every G6.2 line needs a knot K"))?;
+        let point = match (b.get(AXES[a]), b.get(AXES[bb])) {
+            (Some(_), Some(_)) => {
+                let t = self.target(b, false)?;
+                let w = b
+                    .get('R')
+                    .ok_or_else(|| anyhow!("line {line}: a G6.2 control point needs a weight R"))?;
+                Some(([t[0], t[1], t[2]], w))
+            }
+            (None, None) => None,
+            _ => bail!(
+                "line {line}: a G6.2 control point needs both {} and {}",
+                AXES[a],
+                AXES[bb]
+            ),
+        };
+        let done = match self.nurbs6.as_mut() {
+            Some(c) => c.add(point, k, line)?,
+            None => false,
+        };
+        if done {
+            let c = self.nurbs6.take().unwrap_or_else(|| unreachable!());
+            let cap = self.feed_cap(line, 0.0)?;
+            let pts = c.finish(self.s.chord_tolerance_mm, self.out.room())?;
+            let last = *pts
+                .last()
+                .unwrap_or(&[self.pos[0], self.pos[1], self.pos[2]]);
+            for p in pts {
+                self.out.push(p, Some(cap), line)?;
+            }
+            self.pos[..3].copy_from_slice(&last);
+            self.motion = None;
+        }
+        Ok(())
+    }
+}
+
+/// The directory of a program file, for its subroutine files.
+pub fn program_dir(path: &Path) -> Option<PathBuf> {
+    path.parent().map(Path::to_path_buf)
+}
