@@ -170,6 +170,11 @@ pub struct SendArgs {
     /// Send even if the controller's settings differ from the host's.
     #[arg(long)]
     pub no_check: bool,
+    /// Have the controller report every feed it schedules (and its
+    /// planner's events) and check each against the host's schedule bit
+    /// for bit; costs about 23 bytes a point of the link's return channel.
+    #[arg(long)]
+    pub verify: bool,
     /// host-sim configuration (TOML) whose `[gcode]` settings read the
     /// file (chord tolerance of arcs, rapid feed).
     #[arg(long, value_name = "TOML")]
@@ -399,6 +404,7 @@ fn send(a: SendArgs, target: &Target, link_timeout: Duration) -> Result<Exit, Fa
     let mut opts = base_options(link_timeout)?;
     opts.check_settings = !a.no_check;
     opts.initial_override = a.override_percent;
+    opts.reports = a.verify;
     let hs = session.handshake(&opts)?;
     say(&format!(
         "connected to {target}: {}",

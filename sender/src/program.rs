@@ -13,9 +13,10 @@ use controller::command::{config_from_link, point_from_link, MIN_FEED_MM_PER_MIN
 use controller::settings::{Sched, FEED_MAX_MM_PER_MIN};
 use fuzzy_core::lin2021::COMPACT;
 use fuzzy_core::scheduler::{PathPoint, SchedulerConfig};
-use fuzzy_core::units::FeedMmPerMin;
+use fuzzy_core::units::{FeedMmPerMin, Point3Mm};
 use host_sim::config::SimConfig;
 use host_sim::shapes::Shape;
+use link::batch::to_grid;
 
 /// Where a program came from.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -27,7 +28,8 @@ pub enum Source {
 }
 
 /// A program ready to send: points in path order (the first is where the
-/// program assumes the tool starts), each with its source line.
+/// program assumes the tool starts), each with its source line, on the
+/// link's grid ([`on_grid`]).
 #[derive(Clone, Debug)]
 pub struct Program {
     /// A short name (file stem or shape name).
@@ -120,6 +122,17 @@ fn shape_names() -> String {
         .join(", ")
 }
 
+/// `p` with its coordinates rounded to the link's grid
+/// (`link::batch::to_grid`, 2⁻¹⁶ mm): such points travel in compact
+/// `Points` batches, and the controller holds exactly these bits.
+pub fn on_grid(p: PathPoint) -> PathPoint {
+    let [x, y, z] = p.pos.to_bits().map(to_grid);
+    PathPoint {
+        pos: Point3Mm::from_bits(x, y, z),
+        ..p
+    }
+}
+
 /// Load `spec`: an existing file (G-code `.nc .ngc .gcode .tap .cnc .g` or
 /// `.csv`, through `host_sim::inputs::load` with the configuration's
 /// `[gcode]` settings), else a shape name.
@@ -164,6 +177,24 @@ impl Program {
         blocks_mm: Vec<f64>,
         file: &str,
     ) -> Result<Self, InputError> {
+        // On the link's grid, consecutive points that became one merged
+        // (the scheduler would merge them: indices here and there agree).
+        let mut kept = Vec::with_capacity(points.len());
+        let mut kept_lines = Vec::with_capacity(points.len());
+        let mut kept_mm: Vec<f64> = Vec::with_capacity(points.len());
+        for ((p, line), b) in points.into_iter().zip(lines).zip(blocks_mm) {
+            let p = on_grid(p);
+            if kept.last().is_some_and(|q: &PathPoint| q.pos == p.pos) {
+                if let Some(m) = kept_mm.last_mut() {
+                    *m += b;
+                }
+                continue;
+            }
+            kept.push(p);
+            kept_lines.push(line);
+            kept_mm.push(b);
+        }
+        let (points, lines, blocks_mm) = (kept, kept_lines, kept_mm);
         for (p, &line) in points.iter().zip(&lines) {
             let bits = p.pos.to_bits();
             let cap = p.feed_cap.map(|f| f.0.to_bits());
@@ -313,7 +344,7 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("sender-prog-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let f = dir.join("bad.ngc");
-        std::fs::write(&f, "G21 G90\nG1 X1 F100\nG41 X2\n").unwrap();
+        std::fs::write(&f, "G21 G90\nG1 X1 F100\nG999 X2\n").unwrap();
         let spec = f.to_string_lossy().into_owned();
         let e = load(&spec, &SimConfig::default()).unwrap_err();
         assert_eq!(e.file, spec);
@@ -350,6 +381,11 @@ mod tests {
         let p = load(&repo("tests/data/short_segments.ngc"), &g).unwrap();
         assert!(p.len() > 4000);
         assert_eq!(p.points[0].pos.to_bits(), [0; 3], "starts at the origin");
+        assert!(p
+            .points
+            .iter()
+            .all(|q| q.pos.to_bits().iter().all(|&c| link::batch::on_grid(c))));
+        assert!(p.points.windows(2).all(|w| w[0].pos != w[1].pos));
         assert!(p.line_of(1).is_some());
         let c = load(&repo("tests/data/shapes/trident.csv"), &g).unwrap();
         assert!(c.len() > 1000);

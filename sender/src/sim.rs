@@ -56,6 +56,9 @@ impl SimHandle {
         if let Ok(mut c) = self.current.lock() {
             *c = Some(keep);
         }
+        // The clock starts with the first connection (as QEMU's
+        // `wait=on`): its hello goes to that host.
+        self.go.store(true, Ordering::Relaxed);
         Ok(host)
     }
 
@@ -88,26 +91,18 @@ impl Drop for SimHandle {
     }
 }
 
-/// Start a simulated controller at `speed` × real time, fresh from reset
-/// (its hello goes to the first connection); the host's end of its
-/// stream.
+/// Start a simulated controller at `speed` × real time and connect to it:
+/// the host's end of its stream.
 pub fn spawn(speed: f64) -> io::Result<(UnixStream, SimHandle)> {
-    let h = start_held(speed)?;
+    let h = start(speed)?;
     let s = h.connect()?;
-    // Nothing ticks before the first connection is in.
-    h.go.store(true, Ordering::Relaxed);
     Ok((s, h))
 }
 
-/// Start a simulated controller at `speed` × real time, not connected
-/// ([`SimHandle::connect`]).
+/// Start a simulated controller at `speed` × real time, fresh from reset;
+/// its clock starts with the first [`SimHandle::connect`], which gets its
+/// hello.
 pub fn start(speed: f64) -> io::Result<SimHandle> {
-    let h = start_held(speed)?;
-    h.go.store(true, Ordering::Relaxed);
-    Ok(h)
-}
-
-fn start_held(speed: f64) -> io::Result<SimHandle> {
     if !(speed.is_finite() && speed > 0.0 && speed <= 1000.0) {
         return Err(io::Error::other(format!(
             "simulation speed {speed}: must be in (0, 1000]"

@@ -37,6 +37,10 @@ pub struct Options {
     pub check_settings: bool,
     /// An override to set before streaming, percent.
     pub initial_override: Option<u16>,
+    /// Ask the controller to report every input of its planner (the
+    /// scheduled feeds, checked against the host's schedule bit for bit,
+    /// and the events; about 23 bytes a point back over the link).
+    pub reports: bool,
 }
 
 impl Options {
@@ -50,6 +54,7 @@ impl Options {
             hello_wait: Duration::from_millis(500),
             check_settings: true,
             initial_override: None,
+            reports: false,
         }
     }
 }
@@ -230,6 +235,9 @@ const DRAIN_MAX: usize = 512;
 const RESEND_CONTROL: Duration = Duration::from_secs(1);
 /// A stop not confirmed this long after it was sent is sent again.
 const RESEND_STOP: Duration = Duration::from_secs(2);
+/// A finished path whose tool rests off its last point counts as done
+/// after this long (with a warning).
+const SETTLE: Duration = Duration::from_secs(2);
 
 /// A session with one controller.
 pub struct Session {
@@ -442,6 +450,7 @@ struct Run<'a> {
     stale_reached: u32,
     started: bool,
     end_planned: bool,
+    rest_since: Option<Instant>,
     first_point_seq: u32,
     end_seq: u32,
     start_seq: u32,
@@ -468,6 +477,7 @@ impl<'a> Run<'a> {
             stale_reached: hs.status.point_reached,
             started: hs.status.point_reached == 0,
             end_planned: false,
+            rest_since: None,
             first_point_seq: 0,
             end_seq: 0,
             start_seq: 0,
@@ -551,6 +561,9 @@ impl<'a> Run<'a> {
                 ),
             ));
         }
+        s.send(&HostMsg::Reports {
+            planner: self.opts.reports,
+        })?;
         if self.opts.initial_override.is_some() {
             s.send(&HostMsg::Override {
                 percent: self.operator.override_percent,
@@ -776,19 +789,34 @@ impl<'a> Run<'a> {
         Ok(None)
     }
 
-    /// Whether the status says the path is done.
+    /// Whether the status says the path is done: every command
+    /// acknowledged and taken from the queue, the scheduler's lookahead
+    /// empty (so every point went to the planner, whose point count is
+    /// now this path's), the planner past the last point, the tool at
+    /// rest on it; with reports on, the planner also reported the path's
+    /// end. (A tool at rest that is not on the last point is accepted
+    /// after [`SETTLE`], with a warning in the summary.)
     fn check_done(&mut self, s: &Session, st: &Status) -> Option<(Exit, String)> {
         let c = s.conn.client();
-        // The controller reported the path's end to its planner; one that
-        // reports nothing must have reached every point.
-        let reports_agree = self.end_planned
-            || (self.summary.scheduled == 0
-                && self.reached(st).unwrap_or(0) as usize >= self.program.len());
-        if !(c.all_acked() && self.started && reports_agree && at_rest(st, self.credit_size)) {
+        let last = self.program.points.last().map(|p| p.pos.to_bits());
+        let on_last = last == Some(st.pos_mm);
+        let drained = c.all_acked() && queued(st, self.credit_size) == 0 && st.points_held == 0;
+        if drained {
+            self.started = true;
+        }
+        let rest = drained
+            && st.motion == Motion::Idle
+            && st.point_reached as usize >= self.program.len()
+            && (self.end_planned || !self.opts.reports);
+        if !rest {
+            self.rest_since = None;
             return None;
         }
-        let last = self.program.points.last().map(|p| p.pos.to_bits());
-        self.summary.ended_on_last_point = last == Some(st.pos_mm);
+        let since = *self.rest_since.get_or_insert_with(Instant::now);
+        if !on_last && since.elapsed() < SETTLE {
+            return None;
+        }
+        self.summary.ended_on_last_point = on_last;
         let [x, y, z] = st.pos_mm.map(bits_f64);
         Some((
             Exit::Done,

@@ -14,8 +14,10 @@ use std::time::Duration;
 use crate::exit::{Exit, Failure};
 use crate::sim::{self, SimHandle};
 
-/// The default baud rate of a serial port.
-pub const DEFAULT_BAUD: u32 = 921_600;
+/// The default baud rate of a serial port: the rate the firmware's USART
+/// runs at when built with the host's settings
+/// (`controller::settings::LINK_BAUD`).
+pub const DEFAULT_BAUD: u32 = controller::settings::LINK_BAUD;
 
 /// Where to connect.
 #[derive(Clone, Debug, PartialEq)]

@@ -35,6 +35,7 @@ fn opts() -> Options {
     o.link_timeout = Duration::from_secs(3);
     o.hello_wait = Duration::from_millis(300);
     o.stop_timeout = Duration::from_secs(10);
+    o.reports = true;
     o
 }
 
@@ -123,6 +124,27 @@ fn a_gcode_file_and_a_shape_run_to_their_end_exactly() {
         t.points.last().map(|q| q.pos.to_bits()),
         "the axes were told the last point"
     );
+}
+
+#[test]
+fn without_reports_the_end_is_found_from_the_status_alone() {
+    // The same closed path twice (it starts and ends at the origin, and
+    // the second run begins with the first run's point count), then a
+    // G-code program.
+    let h = sim::start(8.0).unwrap();
+    let mut o = opts();
+    o.reports = false;
+    for spec in ["infinity", "infinity", &repo("tests/data/gcode/pocket.ngc")] {
+        let p = load(spec);
+        let mut s = session(&h, Recorder::none());
+        let hs = s.handshake(&o).unwrap();
+        let out = s.run(&p, &hs, &o, &mut NoActions, &mut Quiet);
+        assert_eq!(out.exit, Exit::Done, "{spec}: {}", out.message);
+        assert_eq!(out.summary.scheduled, 0, "{spec}: no reports");
+        assert!(out.summary.ended_on_last_point, "{spec}");
+        let st = out.summary.last_status.unwrap();
+        assert_eq!(st.point_reached as usize, p.len(), "{spec}");
+    }
 }
 
 #[test]
@@ -368,13 +390,13 @@ fn a_lossy_link_resends_and_the_path_is_still_exact() {
     let w = Lossy {
         inner: raw.try_clone().unwrap(),
         n: 0,
-        every: 37,
+        every: 11,
         dropped: dropped.clone(),
     };
     let mut s = Session::new(Box::new(w), Box::new(raw), Recorder::none());
     let o = run(&mut s, &p, &mut NoActions);
     assert_done(&o, &p);
-    assert!(dropped.load(Ordering::Relaxed) > 20);
+    assert!(dropped.load(Ordering::Relaxed) > 5);
     assert!(o.summary.resends > 0, "{:?}", o.summary);
 }
 

@@ -35,7 +35,7 @@ use std::time::{Duration, Instant};
 use controller::settings::MOTION_CONFIG;
 use fuzzy_core::scheduler::PathPoint;
 use link::{DeviceMsg, Motion, PlanEvent, Status};
-use system_tests::firmware::{firmware_elf, qemu_available, repo_root, PlanLog};
+use system_tests::firmware::{firmware_elf, on_grid, qemu_available, repo_root, PlanLog};
 use system_tests::planned;
 
 /// One QEMU test at a time: each QEMU takes a core, and `-icount` slows
@@ -280,16 +280,19 @@ impl Record {
     }
 }
 
-/// The sent path against the host's own reading of the file, then the
+/// The sent path against the host's own reading of the file (on the
+/// link's grid), then the
 /// firmware's run against the host's: every scheduled feed, and the
 /// planner's setpoints replayed through the controller's code (checksum
 /// and position at every status, and `extra` statuses taken after the
 /// run), within every limit. Returns the replay.
 fn verify(name: &str, file: &Path, rec: &Record, extra: &[Status]) -> planned::Replayed {
-    let host: Vec<PathPoint> =
-        host_sim::inputs::load(file, &host_sim::config::SimConfig::default().gcode)
+    // As a sender streams them: on the link's grid.
+    let host: Vec<PathPoint> = on_grid(
+        &host_sim::inputs::load(file, &host_sim::config::SimConfig::default().gcode)
             .expect("the host reads the file")
-            .path_points();
+            .path_points(),
+    );
     assert_eq!(rec.points.len(), host.len(), "{name}: points sent");
     for (i, ((seq, pos, cap), h)) in rec.points.iter().zip(&host).enumerate() {
         assert_eq!(
@@ -376,6 +379,7 @@ fn a_gcode_program_runs_to_its_end_bit_exact_with_the_host() {
     a.extend([
         "send".into(),
         file.display().to_string(),
+        "--verify".into(),
         "--record".into(),
         rec_path.display().to_string(),
     ]);
@@ -427,6 +431,7 @@ fn scripted_hold_resume_override_and_stop() {
         file.display().to_string(),
         "--script".into(),
         script.display().to_string(),
+        "--verify".into(),
         "--record".into(),
         rec_path.display().to_string(),
     ]);
@@ -464,9 +469,18 @@ fn scripted_hold_resume_override_and_stop() {
         panic!("no stop report")
     };
     assert!(points > 0, "the rest of the path was dropped");
-    // At rest where the report says, the motion the host's.
-    let after = status_json(&q);
-    assert_eq!(after.motion, Motion::Idle);
+    // At rest where the report says (the report comes when the planner is
+    // at rest; the tick executes its last setpoints a few ticks later),
+    // the motion the host's.
+    let deadline = Instant::now() + Duration::from_secs(30);
+    let after = loop {
+        let s = status_json(&q);
+        if s.motion == Motion::Idle {
+            break s;
+        }
+        assert!(Instant::now() < deadline, "not at rest: {s:?}");
+        thread::sleep(Duration::from_millis(50));
+    };
     assert_eq!(after.pos_mm, pos_mm);
     assert_ne!(Some(pos_mm), rec.points.last().map(|p| p.1));
     verify("script", &file, &rec, &[after]);
@@ -487,6 +501,7 @@ fn killing_qemu_mid_path_is_link_lost_at_once() {
             .join("tests/data/shapes/trident.csv")
             .display()
             .to_string(),
+        "--verify".into(),
         "--record".into(),
         rec_path.display().to_string(),
     ]);
@@ -535,6 +550,7 @@ fn a_busy_firmware_is_refused_stopped_and_runs_the_next_program() {
             .join("tests/data/shapes/trident.csv")
             .display()
             .to_string(),
+        "--verify".into(),
         "--record".into(),
         rec_path.display().to_string(),
     ]);
@@ -569,7 +585,7 @@ fn a_busy_firmware_is_refused_stopped_and_runs_the_next_program() {
     assert_eq!(status_json(&q).pos_mm, starved.pos_mm, "standing still");
     let file = repo_root().join("tests/data/gcode/pocket.ngc");
     let mut send = q.link_args();
-    send.extend(["send".into(), file.display().to_string()]);
+    send.extend(["send".into(), file.display().to_string(), "--verify".into()]);
     let r = sender(&send, Duration::from_secs(60));
     assert_eq!(r.code(), Some(5), "busy; stderr:\n{}", r.stderr);
     assert!(r.stderr.contains("busy"), "{}", r.stderr);
