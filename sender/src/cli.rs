@@ -298,15 +298,10 @@ fn stop(target: &Target, link_timeout: Duration) -> Result<Exit, Failure> {
     let (mut s, _sim) = connect(target, Recorder::none())?;
     let opts = base_options(link_timeout)?;
     let a = s.stop(&opts)?;
-    if let link::DeviceMsg::Aborted {
-        commands,
-        points,
-        pos_mm,
-    } = a
-    {
+    if let link::DeviceMsg::Aborted { pos_mm, .. } = a {
         let [x, y, z] = pos_mm.map(bits_f64);
         say(&format!(
-            "stopped at X{x:.3} Y{y:.3} Z{z:.3}; {points} points and {commands} queued commands dropped"
+            "stopped at X{x:.3} Y{y:.3} Z{z:.3}; everything queued was dropped"
         ));
     }
     Ok(Exit::Done)

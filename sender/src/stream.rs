@@ -754,15 +754,11 @@ impl<'a> Run<'a> {
                     ));
                 }
             }
-            DeviceMsg::Aborted {
-                commands,
-                points,
-                pos_mm,
-            } => {
+            DeviceMsg::Aborted { pos_mm, .. } => {
                 self.summary.aborted = Some(*m);
                 let [x, y, z] = pos_mm.map(bits_f64);
                 let what = format!(
-                    "stopped at X{x:.3} Y{y:.3} Z{z:.3}; {points} points and {commands} queued commands dropped"
+                    "stopped at X{x:.3} Y{y:.3} Z{z:.3}; the rest of the program was dropped"
                 );
                 return Ok(Some(match stopping {
                     Some(StopKind::Stop) => {
