@@ -393,7 +393,6 @@ fn send(a: SendArgs, target: &Target, link_timeout: Duration) -> Result<Exit, Fa
             .map_err(|e| Failure::new(Exit::Error, format!("{}: {e}", p.display())))?,
         None => Recorder::none(),
     };
-    let interrupts = Interrupts::install();
 
     let (mut session, _sim) = connect(target, rec)?;
     let mut opts = base_options(link_timeout)?;
@@ -401,6 +400,9 @@ fn send(a: SendArgs, target: &Target, link_timeout: Duration) -> Result<Exit, Fa
     opts.initial_override = a.override_percent;
     opts.reports = a.verify;
     let hs = session.handshake(&opts)?;
+    // From here on Ctrl-C is a controlled stop (before, it ends the
+    // sender at once: nothing was sent).
+    let interrupts = Interrupts::install();
     say(&format!(
         "connected to {target}: {}",
         describe_handshake(&hs)
