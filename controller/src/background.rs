@@ -145,13 +145,13 @@ impl<'a> Background<'a> {
         self.planning.fill(setpoints);
 
         // 3. A waiting point into the planner, or one scheduler step.
-        if let Some((commands, points)) = self.abort {
+        if let Some((mut commands, points)) = self.abort {
             // Drop what the abort voided; report it once the tool is at rest.
             while link.lock(|l| l.drop_void(cmds)) {
-                self.abort = Some((commands.wrapping_add(1), points));
+                commands = commands.wrapping_add(1);
                 busy = true;
             }
-            let (commands, points) = self.abort.unwrap_or((commands, points));
+            self.abort = Some((commands, points));
             if let Some(planned) = self.planning.take_aborted() {
                 let pos_mm = self.planning.position().to_bits();
                 let msg = DeviceMsg::Aborted {
