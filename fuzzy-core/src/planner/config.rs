@@ -147,6 +147,12 @@ fn feed_to_tick_q48(tick_us: u32) -> i64 {
 }
 
 impl MotionConfig {
+    /// Whether a planner accepts these settings (what `Motion::new`
+    /// checks, without building one).
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.compile().map(|_| ())
+    }
+
     /// Check and compile.
     pub(crate) fn compile(&self) -> Result<Limits, ConfigError> {
         if !(50..=100_000).contains(&self.tick_us) {
