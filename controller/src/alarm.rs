@@ -247,9 +247,10 @@ impl Latch {
         });
     }
 
-    /// Homing on, and the switch to halt on.
-    pub(crate) fn homing(&self) -> (bool, Option<u8>) {
-        self.with(|s| (s.homing, s.watch))
+    /// What the tick reads each period: homing on, the switch to halt on,
+    /// the coordinate offset.
+    pub(crate) fn tick_view(&self) -> (bool, Option<u8>, [i64; 3]) {
+        self.with(|s| (s.homing, s.watch, s.offset))
     }
 }
 

@@ -715,8 +715,11 @@ impl<'a> Background<'a> {
             report(link, input, notice);
             return true;
         }
+        // Done for the ring's depth in a row: the tick executed the stop.
         let done = self.planning.path_ended() && self.planning.state() == MotionState::Done;
         if !done {
+            w.at = None;
+            self.waiting = Some(w);
             return false;
         }
         let now = self.planning.generated();

@@ -136,7 +136,8 @@ impl Guard {
         if self.active & ESTOP != 0 {
             latch.trip(AlarmCode::EStopInput);
         }
-        let (homing, watch) = latch.homing();
+        let (homing, watch, offset) = latch.tick_view();
+        self.offset = offset;
         if cfg.hard_limits && !homing && rose & !ESTOP != 0 {
             if let Some(bit) = (1..7).find(|b| rose & 1 << b != 0) {
                 latch.trip(AlarmCode::HardLimit {
@@ -176,8 +177,8 @@ impl Guard {
                 }
             }
             Phase::Hold => {
+                self.stopped = false;
                 self.stopped_ticks = self.stopped_ticks.wrapping_add(1);
-                self.offset = latch.offset();
             }
         }
         latch.phase() != Phase::Alarm

@@ -271,6 +271,9 @@ pub struct DeviceLink {
     save: bool,
     /// An unlock the background has to carry out.
     unlock: bool,
+    /// The background carried out the alarm in force (its queued commands
+    /// are void): path commands after an unlock are taken.
+    alarm_handled: bool,
     /// A homing cycle to start (axes).
     home: Option<u8>,
     /// When the last frame that decoded arrived, µs.
@@ -338,6 +341,7 @@ impl DeviceLink {
             store,
             save: false,
             unlock: false,
+            alarm_handled: false,
             home: None,
             last_rx_us: 0,
         }
@@ -371,7 +375,9 @@ impl DeviceLink {
 
     /// Whether path commands are refused now, and why.
     fn path_refusal(&self) -> Option<ErrorCode> {
-        if self.latch.phase() == Phase::Alarm {
+        // After an unlock of a handled alarm, path commands wait in the
+        // queue for the background to leave the alarm.
+        if self.latch.phase() == Phase::Alarm && !(self.unlock && self.alarm_handled) {
             return Some(ErrorCode::Alarm);
         }
         if self.info.homing || self.home.is_some() {
@@ -388,7 +394,11 @@ impl DeviceLink {
 
     /// An unlock to carry out (taken once).
     pub fn take_unlock(&mut self) -> bool {
-        core::mem::take(&mut self.unlock)
+        let u = core::mem::take(&mut self.unlock);
+        if u {
+            self.alarm_handled = false;
+        }
+        u
     }
 
     /// A homing cycle to start (taken once).
@@ -408,6 +418,8 @@ impl DeviceLink {
         let next = self.session.next_seq;
         self.session.abort(next);
         self.abort = false;
+        self.unlock = false;
+        self.alarm_handled = true;
         next
     }
 
