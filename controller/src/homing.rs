@@ -194,7 +194,7 @@ impl Cycle {
         let a = self.axis;
         let towards: i64 = if self.config.homes_to_min(a) { -1 } else { 1 };
         let t = self.config.tick_us() as i128;
-        let accel_key = [Key::AccelX, Key::AccelY, Key::AccelZ][a];
+        let accel_key = [Key::AccelX, Key::AccelY, Key::AccelZ][a.min(2)];
         let accel = ((self.config.get(accel_key) as i128) << 32) * t * t / 1_000_000_000_000;
         let (sign, left, rate) = match stage {
             Stage::Seek => (
@@ -234,7 +234,9 @@ impl Cycle {
         let moving = d != 0;
         if moving {
             let mut b = self.pos.to_bits();
-            b[self.mv.axis] = b[self.mv.axis].saturating_add(d);
+            if let Some(c) = b.get_mut(self.mv.axis) {
+                *c = c.saturating_add(d);
+            }
             self.pos = Point3Mm::from_bits(b[0], b[1], b[2]);
         } else if self.dwell > 0 {
             self.dwell -= 1;

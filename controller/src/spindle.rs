@@ -54,9 +54,31 @@ pub fn duty_q16(rpm: u32, c: &Config) -> u16 {
         MIN_DUTY_Q16
     } else {
         let span = (u16::MAX - MIN_DUTY_Q16) as i64;
-        let d = MIN_DUTY_Q16 as i64 + (rpm - lo) * span / (hi - lo);
+        let d = MIN_DUTY_Q16 as i64 + ((rpm - lo) * span).checked_div(hi - lo).unwrap_or(0);
         d.clamp(MIN_DUTY_Q16 as i64, u16::MAX as i64) as u16
     }
+}
+
+/// A 16-bit timer's prescaler and auto-reload (`PSC`, `ARR`, registers'
+/// values: the counter counts `ARR + 1` at `timer_hz / (PSC + 1)`) for a
+/// PWM period of `pwm_hz`, with the finest duty resolution (the smallest
+/// prescaler whose count fits 16 bits). The frequency is met to the
+/// rounding of the count.
+pub fn pwm_timer(timer_hz: u32, pwm_hz: u32) -> (u16, u16) {
+    let f = pwm_hz.max(1) as u64;
+    let counts = timer_hz as u64 / f;
+    let psc = counts.div_ceil(65_536).clamp(1, 65_536);
+    let arr = ((timer_hz as u64 + (psc * f) / 2) / (psc * f)).clamp(2, 65_536) - 1;
+    ((psc - 1) as u16, arr as u16)
+}
+
+/// The compare value for `duty_q16` of a period of `arr + 1` counts.
+pub fn pwm_compare(duty_q16: u16, arr: u16) -> u16 {
+    if duty_q16 == u16::MAX {
+        // Full on: the compare beyond the count.
+        return arr.saturating_add(1).max(arr);
+    }
+    ((duty_q16 as u32 * (arr as u32 + 1)) >> 16) as u16
 }
 
 /// The spindle's and coolant's state.
@@ -131,6 +153,26 @@ mod tests {
             assert!(d >= last);
             last = d;
         }
+    }
+
+    #[test]
+    fn the_pwm_timer_meets_the_frequency_with_the_finest_resolution() {
+        for (hz, f) in [
+            (84_000_000, 5000),
+            (84_000_000, 1000),
+            (84_000_000, 10),
+            (84_000_000, 100_000),
+        ] {
+            let (psc, arr) = pwm_timer(hz, f);
+            let got = hz as f64 / ((psc as f64 + 1.0) * (arr as f64 + 1.0));
+            assert!((got - f as f64).abs() / (f as f64) < 1e-3, "{f} Hz: {got}");
+            // One prescaler step less would overflow the count.
+            assert!(psc == 0 || hz as u64 / psc as u64 / f as u64 > 65_536);
+        }
+        assert_eq!(pwm_timer(84_000_000, 5000), (0, 16_799));
+        assert_eq!(pwm_compare(0, 999), 0);
+        assert_eq!(pwm_compare(u16::MAX / 2 + 1, 999), 500);
+        assert!(pwm_compare(u16::MAX, 999) > 999, "always on");
     }
 
     #[test]

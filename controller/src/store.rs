@@ -9,8 +9,8 @@
 //! NOR flash is erased to ones and programmed word by word towards zeros,
 //! so records are appended in erased slots one after another and the
 //! sector is erased only when it is full: an erase (hundreds of ms on an
-//! STM32F4, with the core stalled on flash reads) once every
-//! [`SLOTS`]-th save, the others cost the programming of one record.
+//! STM32F4, with the core stalled on flash reads) once every [`SLOTS`]
+//! saves in a 16 KiB sector, the others cost the programming of one record.
 //! (The same log-structured scheme as ST's EEPROM emulation, AN3969, and
 //! grblHAL's flash storage of its settings, `Src/flash.c`; written here
 //! for this record.)
@@ -43,14 +43,17 @@ pub const MAGIC: u32 = 0x5345_5454;
 pub const VERSION: u16 = 1;
 /// Words of a record: magic, version, sequence, the values, CRC.
 pub const RECORD_WORDS: usize = 3 + 2 * COUNT + 1;
-/// Bytes of the sector the log lives in (STM32F4 sector 1: 16 KiB).
+/// Bytes of the smallest sector the log lives in (the STM32F4's 16 KiB
+/// sectors 0-3; sectors 5 and up are 128 KiB).
 pub const SECTOR_BYTES: usize = 16 * 1024;
-/// Records the sector holds.
+/// Records a 16 KiB sector holds.
 pub const SLOTS: usize = SECTOR_BYTES / 4 / RECORD_WORDS;
 
 /// A flash sector, by 32-bit words.
 pub trait Flash {
-    /// The word at `index` (0 .. `SECTOR_BYTES / 4`); an erased word reads
+    /// The sector's size, words.
+    fn words(&self) -> usize;
+    /// The word at `index` (0 .. [`Flash::words`]); an erased word reads
     /// `u32::MAX`.
     fn read(&self, index: usize) -> u32;
     /// Erase the whole sector (every word to `u32::MAX`).
@@ -83,12 +86,7 @@ enum Slot {
 }
 
 fn crc(words: &[u32]) -> u32 {
-    let mut bytes = [0u8; RECORD_WORDS * 4];
-    for (c, w) in bytes.chunks_exact_mut(4).zip(words) {
-        c.copy_from_slice(&w.to_le_bytes());
-    }
-    let n = (words.len() * 4).min(bytes.len());
-    link::crc32(bytes.get(..n).unwrap_or(&[]))
+    link::crc32_words(words)
 }
 
 /// `c` as a record with sequence number `seq`.
@@ -139,8 +137,9 @@ fn read_slot(flash: &impl Flash, slot: usize) -> [u32; RECORD_WORDS] {
 pub fn load(flash: &impl Flash) -> (Config, StoreResult, Store) {
     let mut good: Option<(u32, Config)> = None;
     let mut newest = Slot::Erased;
-    let mut next = SLOTS;
-    for slot in 0..SLOTS {
+    let slots = flash.words() / RECORD_WORDS;
+    let mut next = slots;
+    for slot in 0..slots {
         match decode(&read_slot(flash, slot)) {
             Slot::Erased => {
                 next = slot;
@@ -170,7 +169,7 @@ impl Store {
     pub fn save(&mut self, flash: &mut impl Flash, c: &Config) -> StoreResult {
         let seq = self.seq.wrapping_add(1);
         let record = encode(c, seq);
-        let free = self.next < SLOTS
+        let free = self.next < flash.words() / RECORD_WORDS
             && (0..RECORD_WORDS).all(|i| flash.read(self.next * RECORD_WORDS + i) == u32::MAX);
         if !free {
             if flash.erase().is_err() {
@@ -217,6 +216,9 @@ impl Default for MemFlash {
 
 #[cfg(any(test, feature = "std"))]
 impl Flash for MemFlash {
+    fn words(&self) -> usize {
+        self.words.len()
+    }
     fn read(&self, index: usize) -> u32 {
         self.words.get(index).copied().unwrap_or(u32::MAX)
     }
@@ -326,6 +328,9 @@ mod tests {
     /// A flash whose writes never land (QEMU's ROM).
     struct Rom;
     impl Flash for Rom {
+        fn words(&self) -> usize {
+            SECTOR_BYTES / 4
+        }
         fn read(&self, _: usize) -> u32 {
             0
         }

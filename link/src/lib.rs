@@ -80,11 +80,15 @@ pub const DELIMITER: u8 = 0;
 
 const CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
 
-/// The link's CRC-32 (ISO-HDLC, as Ethernet and zlib) of `bytes`, for
-/// other records that want the same check (the controller's stored
-/// settings).
-pub fn crc32(bytes: &[u8]) -> u32 {
-    CRC32.checksum(bytes)
+/// The link's CRC-32 (ISO-HDLC, as Ethernet and zlib) of `words`, each
+/// little endian, for other records that want the same check (the
+/// controller's stored settings).
+pub fn crc32_words(words: &[u32]) -> u32 {
+    let mut d = CRC32.digest();
+    for w in words {
+        d.update(&w.to_le_bytes());
+    }
+    d.finalize()
 }
 
 /// Fixed-point raw bits: I32F32 (value × 2^32), for positions in mm and

@@ -224,7 +224,8 @@ impl MotionConfig {
                 .min(corner.iter().copied().min().unwrap_or(0) / 2)
                 .max(1),
             feed_to_tick_q48: feed_to_tick_q48(t),
-            tick_to_feed_q16: ((60_000_000u64 << 16) / t as u64) as i64,
+            // (t ≥ 50, checked above.)
+            tick_to_feed_q16: (60_000_000u64 << 16).checked_div(t as u64).unwrap_or(0) as i64,
             tick_us: t,
         })
     }
