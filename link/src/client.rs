@@ -580,10 +580,9 @@ impl Connection {
             DeviceMsg::Setting { id: i, value } if i == id => Some(value),
             _ => None,
         };
-        // Once: a lost reply would be seen as a refusal of the resend's
-        // unchanged value otherwise (the write is idempotent, so a retry
-        // by the caller is harmless).
-        self.ask(&HostMsg::SetSetting { id, value }, 1, pick, seen)
+        // A resend of the same write is harmless: it writes the same value
+        // (and is refused the same way).
+        self.ask(&HostMsg::SetSetting { id, value }, 20, pick, seen)
     }
 
     /// The machine status (alarm, homing, spindle, coolant, inputs, store).
