@@ -82,7 +82,8 @@ pub struct GuardConfig {
     pub debounce: u8,
     /// A limit switch becoming active raises an alarm.
     pub hard_limits: bool,
-    /// The driver-enable output is active low.
+    /// `$4`: the driver-enable output is high to enable (else low, as
+    /// Grbl's default).
     pub enable_invert: bool,
 }
 

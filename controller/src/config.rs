@@ -171,7 +171,7 @@ pub const SETTINGS: [SettingInfo; COUNT] = [
     ),
     s(
         4,
-        "driver enable invert (1: enable is active low)",
+        "driver enable invert (0: low enables, as Grbl and A4988/DRV8825/TMC drivers; 1: high enables)",
         "bool",
         0,
         (0, 1),

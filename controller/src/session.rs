@@ -37,6 +37,23 @@
 //!   next path command is `next_seq` (older ones arriving late are taken
 //!   for resends: acknowledged and ignored).
 //!
+//! - the machine around the motion: `EStop` trips the alarm at once (the
+//!   tick stops at its next period, [`crate::alarm`]); in the alarm state
+//!   every path command is refused (`Alarm`) until `Unlock` (refused while
+//!   the e-stop input is active, `InputActive`; once the background has
+//!   carried out the alarm, path commands after it wait in the queue for
+//!   the unlock to complete); with homing required (`$22`) path commands
+//!   are refused until every axis of the homing passes is homed
+//!   (`NotHomed`), and during a homing cycle (`Busy`); with soft limits on
+//!   (`$20`) a point outside the travel is refused on arrival
+//!   (`OutOfTravel`, a batch all or nothing); `Machine` commands (spindle,
+//!   coolant) are sequenced and queued like points;
+//! - settings (`GetSetting`, `SetSetting`, [`crate::config`]): a write is
+//!   taken only at rest with nothing queued or in an alarm (`Busy`), only
+//!   in range (`OutOfRange`, `UnknownSetting`: nothing changed), and the
+//!   background applies and stores it; `Home` only at rest (`Busy`) with
+//!   homing enabled (`Rejected`); `MachineQuery` is answered at once.
+//!
 //! Sequence numbers and the queue: commands leave the queue in order, so
 //! the next command taken has sequence number `offset + taken`; `offset` is
 //! zero until an abort moves the numbering on.

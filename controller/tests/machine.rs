@@ -657,3 +657,20 @@ fn spindle_commands_take_effect_at_their_point_of_the_path() {
         .iter()
         .all(|p| x_of(*p) == 20.0));
 }
+
+/// A reset by the watchdog (the firmware's start-up trips this alarm when
+/// the chip says so): the controller starts in the alarm state, reports it,
+/// and takes paths only after an unlock.
+#[test]
+fn a_watchdog_reset_starts_in_the_alarm_state() {
+    let mut b = Bench::new();
+    b.dev.latch().trip(AlarmCode::Watchdog);
+    b.run(5);
+    assert_eq!(b.alarms(), vec![(AlarmCode::Watchdog, [0; 3])]);
+    assert_eq!(b.status().motion, Motion::Alarm);
+    assert!(!b.dev.drivers_enabled);
+    b.send(&HostMsg::Unlock);
+    b.path(&[[1.0, 0.0, 0.0]]);
+    let goal = [mm(1.0), 0, 0];
+    b.run_until(20_000, |s| s.motion == Motion::Idle && s.pos_mm == goal);
+}

@@ -412,7 +412,8 @@ pub struct Status {
     pub worst_tick_cycles: u32,
     /// Stack high-water mark, bytes (painted stack).
     pub stack_used_bytes: u32,
-    /// Ticks since boot.
+    /// Ticks the executor ran since boot (ticks stopped by an alarm, a
+    /// homing halt or a refill of the ring are not counted).
     pub ticks: u32,
     /// Ticks the current path has been moving (speed > 0), from its first
     /// move.
