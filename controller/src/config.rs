@@ -179,7 +179,7 @@ pub const SETTINGS: [SettingInfo; COUNT] = [
     ),
     s(
         5,
-        "limit inputs invert, mask (bit 0 X min, 1 X max, 2 Y min, …, 5 Z max)",
+        "limit inputs invert, mask (bit 0 X min, 1 X max, …, 5 Z max; 0: a switch closing to ground is active, 1: an open one, normally closed)",
         "mask",
         0,
         (0, 63),
@@ -187,7 +187,7 @@ pub const SETTINGS: [SettingInfo; COUNT] = [
     ),
     s(
         14,
-        "e-stop input invert (1: active low)",
+        "e-stop input invert (0: closing to ground is active; 1: opening, a normally closed e-stop)",
         "bool",
         0,
         (0, 1),

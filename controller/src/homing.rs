@@ -121,7 +121,12 @@ pub struct Cycle {
     seek: i64,
     locate: i64,
     pull_off: i64,
-    config: Config,
+    /// Axes homing towards their minimum (`$23`).
+    to_min: u8,
+    /// Travel per axis, mm (Q32).
+    travel: [i64; 3],
+    /// Acceleration per axis, mm/tick² (Q32).
+    accel: [i64; 3],
 }
 
 /// mm/min as mm/tick (Q32).
@@ -164,7 +169,13 @@ impl Cycle {
             seek: per_tick(config.get(Key::HomingSeek), t).max(1),
             locate: per_tick(config.get(Key::HomingFeed), t).max(1),
             pull_off: config.pull_off_bits(),
-            config: *config,
+            to_min: (config.get(Key::HomingDirInvert) & 7) as u8,
+            travel: [0, 1, 2].map(|a| config.travel_len_bits(a)),
+            accel: [Key::AccelX, Key::AccelY, Key::AccelZ].map(|k| {
+                let t = t as i128;
+                let a = ((config.get(k) as i128) << 32) * t * t / 1_000_000_000_000;
+                (a as i64).max(1)
+            }),
         };
         c.begin(Stage::Seek);
         Some(c)
@@ -187,19 +198,20 @@ impl Cycle {
 
     /// The switch of the axis being homed.
     fn switch(&self) -> u8 {
-        limit_bit(self.axis, !self.config.homes_to_min(self.axis))
+        limit_bit(self.axis, !self.homes_to_min(self.axis))
+    }
+
+    fn homes_to_min(&self, a: usize) -> bool {
+        self.to_min & 1 << a != 0
     }
 
     fn begin(&mut self, stage: Stage) {
-        let a = self.axis;
-        let towards: i64 = if self.config.homes_to_min(a) { -1 } else { 1 };
-        let t = self.config.tick_us() as i128;
-        let accel_key = [Key::AccelX, Key::AccelY, Key::AccelZ][a.min(2)];
-        let accel = ((self.config.get(accel_key) as i128) << 32) * t * t / 1_000_000_000_000;
+        let a = self.axis.min(2);
+        let towards: i64 = if self.homes_to_min(a) { -1 } else { 1 };
         let (sign, left, rate) = match stage {
             Stage::Seek => (
                 towards,
-                self.config.travel_len_bits(a).saturating_mul(3) / 2,
+                self.travel[a].saturating_mul(3) / 2,
                 self.seek,
             ),
             Stage::BackOff | Stage::PullOff => (-towards, self.pull_off, self.seek),
@@ -212,7 +224,7 @@ impl Cycle {
             left,
             v: 0,
             rate,
-            accel: (accel as i64).max(1),
+            accel: self.accel[a],
         };
         self.dwell = self.rest_ticks;
     }
@@ -308,10 +320,10 @@ impl Cycle {
     /// axis, the others unchanged.
     pub fn home_position(&self, pos: Point3Mm) -> Point3Mm {
         let mut b = pos.to_bits();
-        for (a, c) in b.iter_mut().enumerate() {
+        for (a, (c, travel)) in b.iter_mut().zip(self.travel).enumerate() {
             if self.homed & 1 << a != 0 {
-                *c = if self.config.homes_to_min(a) {
-                    -self.config.travel_len_bits(a) + self.pull_off
+                *c = if self.homes_to_min(a) {
+                    self.pull_off.saturating_sub(travel)
                 } else {
                     -self.pull_off
                 };
