@@ -225,16 +225,23 @@ impl<'a> Background<'a> {
         self.fill_checked(setpoints)
     }
 
-    /// Fill the ring from the planner; a setpoint outside the travel trips
-    /// the soft-limit alarm and does not enter it.
+    /// Fill the ring from the planner; a setpoint that leaves the travel
+    /// (or goes further out of it: a tool outside, not yet homed, may come
+    /// back in, as Grbl allows) trips the soft-limit alarm and does not
+    /// enter it.
     fn fill_checked(&mut self, setpoints: &mut Producer<'_, Setpoint, SETPOINT_RING>) -> usize {
         let mut n = 0;
+        let mut excess = self
+            .config
+            .travel_excess(self.planning.position().to_bits());
         while setpoints.ready() {
             let t = self.planning.generate();
-            if !self.config.within_travel(t.pos.to_bits()) {
+            let out = self.config.travel_excess(t.pos.to_bits());
+            if out > excess {
                 self.latch.trip(AlarmCode::SoftLimit);
                 break;
             }
+            excess = out;
             let _ = setpoints.enqueue(Setpoint::of(self.planning.motion(), &t));
             n += 1;
         }

@@ -583,6 +583,22 @@ impl Config {
         })
     }
 
+    /// How far `pos` (I32F32 bits per axis) lies outside the travel, the
+    /// largest excess of any axis (0 inside, or with soft limits off).
+    pub fn travel_excess(&self, pos: [i64; 3]) -> i64 {
+        if !self.on(Key::SoftLimits) {
+            return 0;
+        }
+        (0..3)
+            .map(|a| {
+                let (lo, hi) = self.travel_bits(a);
+                let x = pos.get(a).copied().unwrap_or(0);
+                lo.saturating_sub(x).max(x.saturating_sub(hi)).max(0)
+            })
+            .max()
+            .unwrap_or(0)
+    }
+
     /// The homing passes: axis masks in order (empty passes skipped by the
     /// cycle).
     pub fn homing_passes(&self) -> [u8; 3] {

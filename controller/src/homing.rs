@@ -209,11 +209,7 @@ impl Cycle {
         let a = self.axis.min(2);
         let towards: i64 = if self.homes_to_min(a) { -1 } else { 1 };
         let (sign, left, rate) = match stage {
-            Stage::Seek => (
-                towards,
-                self.travel[a].saturating_mul(3) / 2,
-                self.seek,
-            ),
+            Stage::Seek => (towards, self.travel[a].saturating_mul(3) / 2, self.seek),
             Stage::BackOff | Stage::PullOff => (-towards, self.pull_off, self.seek),
             Stage::Locate => (towards, self.pull_off.saturating_mul(5), self.locate),
         };

@@ -347,13 +347,11 @@ fn soft_limits_refuse_points_outside_the_travel_on_arrival() {
     assert_eq!(b.alarms(), vec![]);
 }
 
-/// Soft limits on with the travel shrunk below a path already planned is
-/// refused (settings change at rest only); a path planned to leave it
-/// cannot exist. The generated setpoints are checked anyway: with the
-/// travel set at rest to exclude where the tool is, the next motion trips
-/// the soft-limit alarm before a setpoint outside reaches the ring.
+/// Settings change at rest only (refused while moving). With soft limits
+/// switched on while the tool is outside the travel (not homed, say), it
+/// may come back in, as Grbl allows; points further out are refused.
 #[test]
-fn a_setpoint_outside_the_travel_trips_the_soft_limit_alarm() {
+fn soft_limits_let_a_tool_outside_the_travel_come_back_in() {
     let mut b = Bench::new();
     b.path(&line_x(0.0, -30.0, 0.5));
     b.run_until(40_000, |s| {
@@ -374,9 +372,18 @@ fn a_setpoint_outside_the_travel_trips_the_soft_limit_alarm() {
     });
     b.set(130, 40_000);
     b.set(20, 1);
-    // The tool is outside now; the first setpoint generated is too.
+    b.run(50);
+    assert!(b.alarms().is_empty(), "at rest outside: no violation");
+    b.path(&[[-70.0, 0.0, 0.0]]);
     b.run(5);
-    assert_eq!(b.alarms().first().map(|a| a.0), Some(AlarmCode::SoftLimit));
+    assert!(b.errors().contains(&ErrorCode::OutOfTravel));
+    // Back in with one move to a point inside (points outside are refused
+    // whichever way they lead).
+    b.resync();
+    b.path(&[[-35.0, 0.0, 0.0]]);
+    let goal = [mm(-35.0), 0, 0];
+    b.run_until(40_000, |s| s.motion == Motion::Idle && s.pos_mm == goal);
+    assert!(b.alarms().is_empty(), "{:?}", b.alarms());
 }
 
 /// Link loss: a path left open that runs out stops under control
