@@ -2,7 +2,10 @@
 //!
 //! Every pin here is free on the board: ST's user manual UM1472
 //! ("Discovery kit with STM32F407VG MCU", the table of MCU pins against
-//! board functions) gives PE0/PE1 to the accelerometer's interrupts, PE3 to
+//! board functions; the LEDs, button, USB, audio DAC and its I2C and reset
+//! also in Zephyr's board file, `zephyrproject-rtos/zephyr`,
+//! `boards/st/stm32f4_disco/stm32f4_disco.dts`) gives PE0/PE1 to the
+//! accelerometer's interrupts, PE3 to
 //! its chip select, PA5-PA7 to its SPI, PA9 to USB VBUS (with a 4.7 µF
 //! capacitor, which rounds a UART's edges), PA10-PA12 to USB OTG, PA0 to
 //! the user button, PA4, PC7, PC10, PC12 to the audio DAC's I2S, PB6/PB9 to
