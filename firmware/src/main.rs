@@ -4,14 +4,18 @@
 //!
 //! | task | runs on | priority | does |
 //! |---|---|---|---|
-//! | `tick` | SysTick (default 1 kHz) | 3 (highest) | next setpoint from the ring to the step/dir outputs ([`controller::tick`]) |
+//! | `tick` | SysTick (default 1 kHz) | 3 (highest) | inputs, alarms and stops ([`controller::guard`]), next setpoint from the ring to the step/dir outputs ([`controller::tick`]), driver enable |
 //! | `link_rx` | USART1 receive | 2 | bytes → frames → the link session ([`controller::session`]) |
-//! | `idle` | background | 0 | transmit, then one background pass ([`controller::background`]) |
+//! | `idle` | background | 0 | watchdog, transmit, then one background pass ([`controller::background`]) |
 //!
 //! Queues (`controller::ring`, lock-free): commands link → idle (their free
 //! room is the host's credit), setpoints idle → tick. The link's shared
-//! state (`DeviceLink`: session, transmit buffer, controls, figures) is one
-//! resource of `link_rx` and `idle`.
+//! state (`DeviceLink`: session, transmit buffer, controls, settings,
+//! figures) is one resource of `link_rx` and `idle`; the alarm state
+//! (`controller::alarm::Latch`, atomics) is shared by all three without a
+//! lock. The settings are read from flash at start-up
+//! (`controller::store`); a reset by the watchdog starts in the alarm
+//! state.
 #![no_std]
 #![no_main]
 
@@ -21,20 +25,48 @@ use fuzzy_firmware as _;
 mod app {
     use core::mem::MaybeUninit;
 
-    use controller::background::{Background, Notice};
+    use controller::alarm::Latch;
+    use controller::background::{Background, MachineIo, Notice};
     use controller::command::Cmd;
+    use controller::config::{Config, Key};
+    use controller::guard::Guard;
     use controller::planning::Setpoint;
     use controller::ring::{Consumer, Producer, Ring};
     use controller::session::DeviceLink;
-    use controller::settings::{
-        Plan, CMD_QUEUE, MOTION_CONFIG, SETPOINT_RING, STEPS_PER_MM, TICK_HZ,
-    };
+    use controller::settings::{Plan, CMD_QUEUE, SETPOINT_RING};
+    use controller::spindle::MachineOutputs;
     use controller::stepper::Axes;
+    use controller::store::{self, Store};
     use controller::tick::TickExecutor;
     use fuzzy_core::units::Point3Mm;
-    use fuzzy_firmware::board::{self, Pin, UsartRx, UsartTx};
+    use fuzzy_firmware::board::{
+        self, Enable, Inputs, Outputs, Pin, SettingsFlash, UsartRx, UsartTx, Watchdog,
+    };
     use fuzzy_firmware::measure::{self, StackProbe};
-    use link::{FrameReader, HostMsg};
+    use link::{AlarmCode, DeviceMsg, FrameReader, HostMsg, StoreResult};
+
+    /// The spindle, coolant and settings store, as the background drives
+    /// them.
+    pub struct Machine {
+        outputs: Outputs,
+        flash: SettingsFlash,
+        store: Store,
+        watchdog: Watchdog,
+    }
+
+    impl MachineIo for Machine {
+        fn outputs(&mut self, o: MachineOutputs) {
+            self.outputs.set(o);
+        }
+
+        fn save(&mut self, c: &Config) -> StoreResult {
+            // An erase stalls the core for up to 2 s: the watchdog waits.
+            self.watchdog.long(true);
+            let r = self.store.save(&mut self.flash, c);
+            self.watchdog.long(false);
+            r
+        }
+    }
 
     #[shared]
     struct Shared {
@@ -47,29 +79,40 @@ mod app {
     struct Local {
         sp_rx: Consumer<'static, Setpoint, SETPOINT_RING>,
         axes: Axes<Pin, Pin>,
+        guard: Guard,
+        inputs: Inputs,
+        enable: Enable,
+        latch: &'static Latch,
         rx: UsartRx,
         reader: FrameReader,
         cmd_tx: Producer<'static, Cmd, CMD_QUEUE>,
         cmd_rx: Consumer<'static, Cmd, CMD_QUEUE>,
         sp_tx: Producer<'static, Setpoint, SETPOINT_RING>,
         background: Background<'static>,
+        machine: Machine,
     }
 
     #[init(local = [
         cmds: Ring<Cmd, CMD_QUEUE> = Ring::new(),
         setpoints: Ring<Setpoint, SETPOINT_RING> = Ring::new(),
         plan: MaybeUninit<Plan> = MaybeUninit::uninit(),
+        latch_slot: Latch = Latch::new(),
     ])]
     fn init(cx: init::Context) -> (Shared, Local, init::Monotonics) {
         let mut core = cx.core;
-        let b = board::init(cx.device);
+        let mut b = board::init(cx.device);
+        let latch: &'static Latch = cx.local.latch_slot;
+        let (config, stored, store) = store::load(&b.flash);
+        if b.watchdog_reset {
+            latch.trip(AlarmCode::Watchdog);
+        }
         let (cmd_tx, cmd_rx) = cx.local.cmds.split();
         let (mut sp_tx, sp_rx) = cx.local.setpoints.split();
-        let Some(plan) = new_plan(cx.local.plan) else {
+        let Some(plan) = new_plan(cx.local.plan, &config) else {
             defmt::error!("bad planner settings");
             fuzzy_firmware::fail()
         };
-        let mut background = match Background::new(plan, Point3Mm::ORIGIN) {
+        let mut background = match Background::new(plan, Point3Mm::ORIGIN, latch, config) {
             Ok(bg) => bg,
             Err(e) => {
                 defmt::error!("cannot start: {}", e);
@@ -78,12 +121,22 @@ mod app {
         };
         // Setpoints ready before the first tick.
         background.fill(&mut sp_tx);
-        let mut link = DeviceLink::new();
+        let mut link = DeviceLink::new(latch, config, stored);
         let hello = link.hello(background.planning().motion());
         link.tx.send(&hello, 0);
-        measure::set_tick_period_us(1_000_000 / TICK_HZ);
-        measure::start_tick_timer(&mut core.SYST, TICK_HZ);
-        defmt::info!("fuzzy feed controller: {}", hello);
+        link.tx.send(&DeviceMsg::Stored(stored), 0);
+        b.outputs
+            .start_pwm(config.get(Key::SpindlePwmHz).clamp(1, 100_000) as u32);
+        b.watchdog.start();
+        measure::set_tick_period_us(config.tick_us());
+        measure::start_tick_timer(&mut core.SYST, config.tick_hz());
+        defmt::info!(
+            "fuzzy feed controller on {=str}: {}; settings {}; crystal {=bool}",
+            fuzzy_firmware::boards::MAP.name,
+            hello,
+            stored,
+            b.crystal
+        );
         (
             Shared {
                 link,
@@ -92,13 +145,25 @@ mod app {
             },
             Local {
                 sp_rx,
-                axes: Axes::new(b.axes, STEPS_PER_MM, Point3Mm::ORIGIN),
+                // The burst step output takes whole steps/mm, one for all
+                // axes (the timed step generator takes them per axis).
+                axes: Axes::new(b.axes, config.steps_per_mm(0), Point3Mm::ORIGIN),
+                guard: Guard::new(),
+                inputs: b.inputs,
+                enable: b.enable,
+                latch,
                 rx: b.rx,
                 reader: FrameReader::new(),
                 cmd_tx,
                 cmd_rx,
                 sp_tx,
                 background,
+                machine: Machine {
+                    outputs: b.outputs,
+                    flash: b.flash,
+                    store,
+                    watchdog: b.watchdog,
+                },
             },
             init::Monotonics(),
         )
@@ -106,18 +171,23 @@ mod app {
 
     /// The planner, built in its static slot (6.5 KB: one temporary on
     /// init's stack, not two).
-    fn new_plan(slot: &'static mut MaybeUninit<Plan>) -> Option<&'static mut Plan> {
-        Some(slot.write(Plan::new(MOTION_CONFIG).ok()?))
+    fn new_plan(slot: &'static mut MaybeUninit<Plan>, c: &Config) -> Option<&'static mut Plan> {
+        Some(slot.write(Plan::new(c.motion_config()).ok()?))
     }
 
-    /// The next setpoint to the outputs, every timer period.
-    #[task(binds = SysTick, priority = 3, local = [sp_rx, axes], shared = [exec])]
+    /// Inputs and stops, then the next setpoint to the outputs, every
+    /// timer period.
+    #[task(binds = SysTick, priority = 3, local = [sp_rx, axes, guard, inputs, enable, latch], shared = [exec])]
     fn tick(mut cx: tick::Context) {
         let t0 = measure::cycles_in_period();
         let local = cx.local;
+        let latch: &Latch = local.latch;
+        let raw = local.inputs.read();
         // The highest priority: no actual lock.
         cx.shared.exec.lock(|e| {
-            e.tick(local.sp_rx, local.axes);
+            let on = local.guard.tick(raw, latch, e, local.sp_rx, local.axes);
+            local.enable.set(on, latch.guard_config().enable_invert);
+            local.guard.check_lag(latch, local.axes.lag_events());
             // From entry to here (the wake-up latency is not the tick's
             // cost, and under QEMU's -icount it depends on host timing).
             e.worst_cycles = e.worst_cycles.max(measure::cycles_in_period_since(t0));
@@ -147,17 +217,24 @@ mod app {
         }
     }
 
-    /// Background: transmit, one pass, sleep when there is nothing to do
-    /// (a tick frees a ring slot, a byte brings a command).
-    #[idle(local = [cmd_rx, sp_tx, background, probe: StackProbe = StackProbe::new()], shared = [link, port])]
+    /// Background: watchdog, transmit, one pass, sleep when there is
+    /// nothing to do (a tick frees a ring slot, a byte brings a command).
+    #[idle(local = [cmd_rx, sp_tx, background, machine, probe: StackProbe = StackProbe::new()], shared = [link, port])]
     fn idle(cx: idle::Context) -> ! {
         let (local, mut sh) = (cx.local, cx.shared);
         loop {
+            local.machine.watchdog.feed();
             let pending = (&mut sh.link, &mut sh.port).lock(|l, p| l.tx.drain(|b| p.try_write(b)));
             let stack = local.probe.step(256);
-            let busy = local
-                .background
-                .step(&mut sh.link, local.cmd_rx, local.sp_tx, stack, log);
+            let busy = local.background.step(
+                &mut sh.link,
+                local.cmd_rx,
+                local.sp_tx,
+                local.machine,
+                measure::uptime_us(),
+                stack,
+                log,
+            );
             if !busy && pending == 0 && !local.cmd_rx.ready() && !local.sp_tx.ready() {
                 rtic::export::wfi();
             }
@@ -167,6 +244,7 @@ mod app {
     fn log(n: Notice) {
         match n {
             Notice::PathScheduled => defmt::info!("path scheduled"),
+            Notice::Alarm(code) => defmt::warn!("alarm: {}", code),
             other => defmt::error!("{}", other),
         }
     }

@@ -7,11 +7,13 @@
 use std::io::{Read, Write};
 use std::time::{Duration, Instant};
 
+use controller::alarm::Latch;
+use controller::config::Config;
 use controller::session::DeviceLink;
 use controller::settings::{Plan, CMD_CREDIT, MOTION_CONFIG};
 use fuzzy_core::scheduler::SchedulerConfig;
 use link::client::{Connection, Hello, SILENCE};
-use link::{DeviceMsg, ErrorCode, HostMsg, Motion, PlanEvent, Status};
+use link::{DeviceMsg, ErrorCode, HostMsg, Motion, PlanEvent, Status, StoreResult};
 
 use crate::actions::{Action, Effect, Operator, StopKind};
 use crate::exit::{Exit, Failure};
@@ -123,11 +125,13 @@ pub struct Handshake {
     pub credit_size: u32,
 }
 
-/// The hello a controller built with the host's settings sends: the
-/// controller crate's own (`DeviceLink::hello`).
+/// The hello a controller with the default settings sends (built with the
+/// host's `FW_*` settings, no `$` setting changed): the controller crate's
+/// own (`DeviceLink::hello`).
 pub fn expected_hello() -> Option<Hello> {
+    static LATCH: Latch = Latch::new();
     let plan = Box::new(Plan::new(MOTION_CONFIG).ok()?);
-    match DeviceLink::new().hello(&plan) {
+    match DeviceLink::new(&LATCH, Config::DEFAULT, StoreResult::Empty).hello(&plan) {
         DeviceMsg::Hello {
             tick_hz,
             accel_mm_per_s2,
@@ -360,7 +364,7 @@ impl Session {
                     return Err(Failure::new(
                         Exit::Controller,
                         format!(
-                            "the controller's settings differ from the host's ({}); the firmware and the sender must be built with the same FW_* settings, or pass --no-check",
+                            "the controller's settings differ from the host's ({}); the firmware and the sender must be built with the same FW_* settings and the controller's $ settings left at their defaults, or pass --no-check",
                             d.join("; ")
                         ),
                     ));

@@ -46,6 +46,8 @@ pub fn state_name(m: Motion) -> &'static str {
         Motion::Running => "Run",
         Motion::Held => "Hold",
         Motion::Starved => "Starved",
+        Motion::Alarm => "Alarm",
+        Motion::Homing => "Home",
     }
 }
 
