@@ -1,4 +1,5 @@
-//! Puts `memory.x` (repository root) on the linker search path, and records
+//! Puts `memory.x` (repository root; `memory-bl32k.x` for the BTT SKR 2,
+//! feature `skr2`) on the linker search path, and records
 //! the three test shapes, quantised exactly as the host does
 //! (`Point3Mm::from_f64`), as raw I32F32 bits for the cost benchmark. (The
 //! `FW_*` settings are read, and tracked, by the `controller` crate.)
@@ -10,9 +11,16 @@ use fuzzy_core::units::Point3Mm;
 
 fn main() {
     let out = PathBuf::from(env::var_os("OUT_DIR").expect("OUT_DIR"));
-    fs::copy("../memory.x", out.join("memory.x")).expect("copy ../memory.x");
+    // The BTT SKR 2's image sits behind its 32 KiB bootloader.
+    let memory = if env::var_os("CARGO_FEATURE_SKR2").is_some() {
+        "memory-bl32k.x"
+    } else {
+        "../memory.x"
+    };
+    fs::copy(memory, out.join("memory.x")).expect("copy memory.x");
     println!("cargo:rustc-link-search={}", out.display());
     println!("cargo:rerun-if-changed=../memory.x");
+    println!("cargo:rerun-if-changed=memory-bl32k.x");
     for shape in ["infinity", "trident", "butterfly"] {
         let src = format!("../tests/data/shapes/{shape}.csv");
         println!("cargo:rerun-if-changed={src}");

@@ -3,7 +3,11 @@
 # the Cortex-M4F target, QEMU for the firmware tests (and python3 +
 # binutils for the firmware's size/cost/panic checks), GNU Octave with its
 # fuzzy-logic-toolkit for the cross-check of the exported controller.
+# With --tests (./scripts/test.sh) also fuzzylite, which only a test needs
+# (the FCL exports loaded by another tool); the main job does without it.
 set -euo pipefail
+for_tests=0
+if [ "${1:-}" = "--tests" ]; then for_tests=1; fi
 
 log() { printf '\033[1m[setup]\033[0m %s\n' "$*" >&2; }
 as_root() { if [ "$(id -u)" = 0 ]; then "$@"; else sudo "$@"; fi; }
@@ -25,6 +29,9 @@ command -v addr2line >/dev/null || missing+=(binutils)
 command -v octave-cli >/dev/null || missing+=(octave octave-fuzzy-logic-toolkit)
 if command -v octave-cli >/dev/null && ! octave-cli --no-gui -q --eval 'pkg load fuzzy-logic-toolkit' >/dev/null 2>&1; then
     missing+=(octave-fuzzy-logic-toolkit)
+fi
+if [ "$for_tests" = 1 ]; then
+    command -v fuzzylite >/dev/null || missing+=(fuzzylite)
 fi
 if [ ${#missing[@]} -gt 0 ]; then
     log "apt-get install ${missing[*]}"

@@ -2,10 +2,11 @@
 # Every test, from a fresh machine: set-up, formatting, lints, the no_std
 # build of the core and the controller logic for the Cortex-M4F, the firmware (build, lints, size,
 # panic and cost checks in QEMU), and all tests (including Octave evaluating
-# our exported controller and the firmware's system tests in QEMU).
+# our exported controller, fuzzylite loading its FCL exports, and the
+# firmware's system tests in QEMU).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-./scripts/setup.sh
+./scripts/setup.sh --tests
 
 step() { printf '\n\033[1m== %s\033[0m\n' "$*"; }
 
@@ -40,7 +41,7 @@ step "firmware: instructions per point and per tick in QEMU -icount, <= +10 % on
 python3 firmware/scripts/check.py cost
 
 step "tests (including the firmware in QEMU: tests/tests/firmware_qemu.rs)"
-FUZZY_REQUIRE_OCTAVE=1 FUZZY_REQUIRE_QEMU=1 cargo test --workspace -q
+FUZZY_REQUIRE_OCTAVE=1 FUZZY_REQUIRE_FUZZYLITE=1 FUZZY_REQUIRE_QEMU=1 cargo test --workspace -q
 
 step "fuzz: every target in fuzz/ for 60 s (cargo-fuzz on stable, --sanitizer none)"
 fuzz/run.sh 60

@@ -1,42 +1,70 @@
 //! The background pass (the firmware's idle loop, lowest priority): force
 //! loop, hold/resume/override into the planner, the setpoint ring kept
 //! full, one scheduled point into the planner or one scheduler step,
-//! credit, figures for status.
+//! credit, figures for status; and the machine around the motion: alarms,
+//! homing, spindle and coolant, settings.
 //!
 //! Each pass, in order:
-//! 1. if the transmit buffer has the background's reserve free: an abort
-//!    (the scheduler's lookahead dropped, the planner stopping), then the
-//!    controls the link received (a force sample first becomes an
-//!    override: [`ForceLoop`]) go to the planner, each reported;
-//! 2. the setpoint ring is filled (the planner runs `SETPOINT_RING − 1`
-//!    ticks ahead of the tick interrupt);
-//! 3. with the reserve free: a waiting scheduled point into the planner, or
-//!    else one scheduler step (a point of a finished path being drained, or
-//!    the next queued command; commands voided by an abort are dropped),
-//!    its output to the planner, reported; while an abort is stopping the
-//!    tool, nothing new enters the planner, and once it is done its report
-//!    (`DeviceMsg::Aborted`) is sent;
-//! 4. credit back to the host ([`DeviceLink::poll`]);
-//! 5. the figures status replies report, when they changed.
+//! 1. settings changed over the link are taken (the planner rebuilt at
+//!    rest if its settings changed, `PlanEvent::Reset`), and written to
+//!    flash if asked (`DeviceMsg::Stored`);
+//! 2. in the alarm state ([`crate::alarm`]): once the tick has stopped, the
+//!    alarm is carried out: the scheduler's lookahead, the queued commands,
+//!    a machine command or homing cycle in progress are dropped, the
+//!    spindle and coolant stopped, the planner rebuilt at rest where the
+//!    tool stopped (`PlanEvent::Reset`), and `DeviceMsg::Alarm` reported;
+//!    then nothing runs until an unlock, which refills the ring before
+//!    the tick runs again;
+//! 3. during a homing cycle ([`crate::homing`]) the ring is filled by the
+//!    cycle instead of the planner; at each halt on a switch the next move
+//!    starts where the tool stopped; at the end the homed axes get their
+//!    machine coordinates and the planner is rebuilt there;
+//! 4. otherwise the motion: if the transmit buffer has the background's
+//!    reserve free: an abort (the scheduler's lookahead dropped, the
+//!    planner stopping), then the controls the link received (a force
+//!    sample first becomes an override: [`ForceLoop`]) go to the planner,
+//!    each reported; the setpoint ring is filled (the planner runs
+//!    `SETPOINT_RING − 1` ticks ahead of the tick interrupt; a setpoint
+//!    outside the travel, with soft limits on, trips the alarm instead of
+//!    entering the ring); with the reserve free: a waiting scheduled point
+//!    into the planner, or else one scheduler step (a point of a finished
+//!    path being drained, or the next queued command; commands voided by
+//!    an abort are dropped), its output to the planner, reported; while an
+//!    abort is stopping the tool, nothing new enters the planner, and once
+//!    it is done its report (`DeviceMsg::Aborted`) is sent. A machine
+//!    command ends the path and waits until the tool is at rest at its end
+//!    (the ring executed), then takes effect (`DeviceMsg::Applied`), and a
+//!    spin-up delay holds the next path back ([`crate::spindle`]);
+//! 5. link loss: with the path open and the tool stopped for want of it
+//!    (the planner's controlled stop on underrun), a link silent for the
+//!    timeout (`$206`) trips [`AlarmCode::LinkLoss`];
+//! 6. credit back to the host ([`DeviceLink::poll`]); the machine's
+//!    reports (alarm, homed, applied, stored) when the reserve is free;
+//! 7. the figures status replies report, when they changed.
 //!
 //! The shared part ([`DeviceLink`]) is reached through a lock
 //! (`rtic_core::Mutex`: RTIC's resource proxies in the firmware, anything
 //! on the host), held only for short sections.
 
 use fuzzy_core::njiri::OverrideError;
-use fuzzy_core::planner::{ConfigError, MotionError};
+use fuzzy_core::planner::{ConfigError, MotionError, MotionState};
 use fuzzy_core::scheduler::SchedulerError;
 use fuzzy_core::units::Point3Mm;
-use link::DeviceMsg;
+use heapless::Deque;
+use link::{AlarmCode, DeviceMsg, MachineCmd, StoreResult};
 use rtic_core::Mutex;
 
+use crate::alarm::{GuardConfig, Latch, Phase};
 use crate::command::Cmd;
+use crate::config::{Config, Key};
 use crate::controls::{Controls, ForceLoop};
 use crate::feeder::Feeder;
+use crate::homing::{self, Cycle};
 use crate::planning::{Dropped, PlanInput, Planning, Setpoint};
 use crate::ring::{Consumer, Producer};
 use crate::session::{BackgroundInfo, DeviceLink, Taken};
 use crate::settings::{Plan, CMD_QUEUE, SETPOINT_RING};
+use crate::spindle::{MachineOutputs, Spindle};
 
 /// Something worth a log line (the background cannot log by itself).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -54,6 +82,11 @@ pub enum Notice {
     ReportDropped,
     /// An abort completed: the tool is at rest, the path dropped.
     Aborted,
+    /// The alarm state was entered.
+    Alarm(AlarmCode),
+    /// The planner refused settings the link accepted (cannot happen: the
+    /// link checks them as a whole).
+    SettingsRefused(ConfigError),
 }
 
 /// Why the background could not start.
@@ -76,7 +109,53 @@ impl From<OverrideError> for StartError {
     }
 }
 
-/// The background's state: scheduler, planner, force loop.
+/// What the background drives besides the motion.
+pub trait MachineIo {
+    /// Set the spindle and coolant outputs.
+    fn outputs(&mut self, o: MachineOutputs);
+    /// Write the settings to their store (flash); how it went.
+    fn save(&mut self, c: &Config) -> StoreResult;
+}
+
+/// A machine without spindle, coolant or store (the cost benchmark).
+pub struct NoMachine;
+
+impl MachineIo for NoMachine {
+    fn outputs(&mut self, _: MachineOutputs) {}
+    fn save(&mut self, _: &Config) -> StoreResult {
+        StoreResult::WriteFailed
+    }
+}
+
+/// The tick's input handling from the settings.
+pub fn guard_config(c: &Config) -> GuardConfig {
+    GuardConfig {
+        invert: c.input_invert(),
+        debounce: c.get(Key::Debounce).clamp(1, 255) as u8,
+        hard_limits: c.on(Key::HardLimits),
+        enable_invert: c.on(Key::EnableInvert),
+    }
+}
+
+/// A machine command waiting for the motion before it.
+#[derive(Clone, Copy, Debug)]
+struct Waiting {
+    seq: u32,
+    cmd: MachineCmd,
+    /// Generated tick from which the tool is at rest at the path's end
+    /// (the ring executed): the command applies there.
+    at: Option<u32>,
+}
+
+/// The machine's reports waiting for transmit room.
+const OUTBOX: usize = 4;
+
+/// Whether tick `now` is at or after `at` (wrapping).
+fn reached(now: u32, at: u32) -> bool {
+    (now.wrapping_sub(at) as i32) >= 0
+}
+
+/// The background's state: scheduler, planner, force loop, the machine.
 pub struct Background<'a> {
     feeder: Feeder,
     planning: Planning<'a>,
@@ -84,17 +163,50 @@ pub struct Background<'a> {
     published: BackgroundInfo,
     /// An abort in progress: commands and points dropped so far.
     abort: Option<(u32, u32)>,
+    latch: &'a Latch,
+    config: Config,
+    config_version: u32,
+    spindle: Spindle,
+    waiting: Option<Waiting>,
+    /// No new path before this generated tick (spin-up delay).
+    hold_until: u32,
+    /// The alarm in force was carried out.
+    alarm_done: bool,
+    homing: Option<Cycle>,
+    /// The homing cycle is done and waits for the tick to stop.
+    homing_done: bool,
+    homed: u8,
+    outbox: Deque<DeviceMsg, OUTBOX>,
 }
 
 impl<'a> Background<'a> {
-    /// At rest at `start`, with the planner in `plan`.
-    pub fn new(plan: &'a mut Plan, start: Point3Mm) -> Result<Self, StartError> {
+    /// At rest at `start`, with the planner in `plan` (built from
+    /// `config.motion_config()`), the settings `config`, the alarm state
+    /// shared in `latch`.
+    pub fn new(
+        plan: &'a mut Plan,
+        start: Point3Mm,
+        latch: &'a Latch,
+        config: Config,
+    ) -> Result<Self, StartError> {
+        latch.set_guard_config(guard_config(&config));
         Ok(Background {
             feeder: Feeder::new().map_err(StartError::Scheduler)?,
             planning: Planning::new(plan, start).map_err(StartError::Planner)?,
             force: ForceLoop::new()?,
             published: BackgroundInfo::default(),
             abort: None,
+            latch,
+            config,
+            config_version: 0,
+            spindle: Spindle::default(),
+            waiting: None,
+            hold_until: 0,
+            alarm_done: false,
+            homing: None,
+            homing_done: false,
+            homed: 0,
+            outbox: Deque::new(),
         })
     }
 
@@ -103,55 +215,425 @@ impl<'a> Background<'a> {
         &self.planning
     }
 
-    /// Fill the setpoint ring (before the first tick).
-    pub fn fill(&mut self, setpoints: &mut Producer<'_, Setpoint, SETPOINT_RING>) -> usize {
-        self.planning.fill(setpoints)
+    /// The settings in force.
+    pub fn config(&self) -> &Config {
+        &self.config
     }
 
-    /// One pass (module docs); `stack_bytes` is the stack high-water mark
-    /// to publish. Returns whether it did work (otherwise the caller may
-    /// sleep until an interrupt, once the queues are idle too).
+    /// Fill the setpoint ring (before the first tick).
+    pub fn fill(&mut self, setpoints: &mut Producer<'_, Setpoint, SETPOINT_RING>) -> usize {
+        self.fill_checked(setpoints)
+    }
+
+    /// Fill the ring from the planner; a setpoint that leaves the travel
+    /// (or goes further out of it: a tool outside, not yet homed, may come
+    /// back in, as Grbl allows) trips the soft-limit alarm and does not
+    /// enter it.
+    fn fill_checked(&mut self, setpoints: &mut Producer<'_, Setpoint, SETPOINT_RING>) -> usize {
+        let mut n = 0;
+        let mut excess = self
+            .config
+            .travel_excess(self.planning.position().to_bits());
+        while setpoints.ready() {
+            let t = self.planning.generate();
+            let out = self.config.travel_excess(t.pos.to_bits());
+            if out > excess {
+                self.latch.trip(AlarmCode::SoftLimit);
+                break;
+            }
+            excess = out;
+            let _ = setpoints.enqueue(Setpoint::of(self.planning.motion(), &t));
+            n += 1;
+        }
+        n
+    }
+
+    fn post(&mut self, msg: DeviceMsg) {
+        // Full: the oldest report goes (four are far more than a pass makes).
+        if self.outbox.is_full() {
+            self.outbox.pop_front();
+        }
+        let _ = self.outbox.push_back(msg);
+    }
+
+    /// One pass (module docs); `io` the spindle, coolant and store,
+    /// `now_us` the time (µs, wrapping), `stack_bytes` the stack high-water
+    /// mark to publish. Returns whether it did work (otherwise the caller
+    /// may sleep until an interrupt, once the queues are idle too).
+    #[allow(clippy::too_many_arguments)]
     pub fn step<L: Mutex<T = DeviceLink>>(
         &mut self,
         link: &mut L,
         cmds: &mut Consumer<'_, Cmd, CMD_QUEUE>,
         setpoints: &mut Producer<'_, Setpoint, SETPOINT_RING>,
+        io: &mut impl MachineIo,
+        now_us: u32,
         stack_bytes: u32,
         mut notice: impl FnMut(Notice),
     ) -> bool {
         let mut busy = false;
         let room = link.lock(|l| l.tx.has_reserve());
 
-        // 1. Abort; hold, resume, override, force samples.
+        // 1. Settings.
+        if room {
+            busy |= self.settings(link, io, &mut notice);
+        }
+
+        // 2. Alarm; 3. homing; 4. the motion.
+        if self.latch.phase() == Phase::Alarm || self.alarm_done {
+            busy |= self.alarm(link, cmds, setpoints, io, room, &mut notice);
+        } else if self.homing.is_some() {
+            busy |= self.homing_pass(link, setpoints, room, &mut notice);
+        } else {
+            busy |= self.motion(link, cmds, setpoints, io, room, &mut notice);
+            // 5. Link loss.
+            let timeout_ms = self.config.get(Key::LinkLoss) as u32;
+            if timeout_ms > 0
+                && self.planning.state() == MotionState::Starved
+                && self.planning.motion().at_rest()
+            {
+                let silent = link.lock(|l| now_us.wrapping_sub(l.last_rx_us));
+                if silent / 1000 >= timeout_ms {
+                    self.latch.trip(AlarmCode::LinkLoss);
+                }
+            }
+            // A homing cycle to start.
+            if let Some(axes) = link.lock(|l| l.take_home()) {
+                if self.idle() {
+                    self.homing = Cycle::new(&self.config, axes, self.planning.position());
+                    self.homing_done = false;
+                    busy = true;
+                }
+            }
+        }
+
+        // 6. Credit; the machine's reports.
+        link.lock(|l| l.poll(busy));
+        if let Some(msg) = self.outbox.front().copied() {
+            if link.lock(|l| l.tx.has_reserve() && l.tx.send(&msg, 0)) {
+                self.outbox.pop_front();
+            }
+        }
+
+        // 7. Figures for status replies.
+        let p = &self.planning;
+        let info = BackgroundInfo {
+            points_held: self.feeder.held() as u16,
+            planned: p.planned() as u16,
+            point: p.point_reached(),
+            underruns: p.underruns(),
+            override_percent: p.override_percent(),
+            stack: stack_bytes,
+            generated: p.generated(),
+            checksum: p.checksum().folded(),
+            idle: self.idle(),
+            homing: self.homing.is_some(),
+            homed: self.homed,
+            spindle: self.spindle,
+        };
+        if info != self.published {
+            self.published = info;
+            link.lock(|l| l.info = info);
+        }
+        busy
+    }
+
+    /// Nothing in the scheduler, the planner at rest at a path's end,
+    /// nothing waiting.
+    fn idle(&self) -> bool {
+        self.feeder.held() == 0
+            && !self.feeder.is_draining()
+            && !self.planning.waiting()
+            && self.planning.path_ended()
+            && matches!(self.planning.state(), MotionState::Done | MotionState::Idle)
+            && self.waiting.is_none()
+            && self.abort.is_none()
+            && self.homing.is_none()
+            && reached(self.planning.generated(), self.hold_until)
+    }
+
+    /// A scheduled point to the planner (it waits while a spin-up delay
+    /// runs); reported when the planner takes it.
+    fn take_point<L: Mutex<T = DeviceLink>>(
+        &mut self,
+        s: &fuzzy_core::scheduler::ScheduledPoint,
+        link: &mut L,
+        notice: &mut impl FnMut(Notice),
+    ) {
+        if !reached(self.planning.generated(), self.hold_until) {
+            self.planning.queue(s);
+            return;
+        }
+        match self.planning.take_point(s) {
+            Ok(Some(input)) => report(link, input, notice),
+            Ok(None) => {}
+            Err(e) => notice(Notice::PlannerRefused(e)),
+        }
+    }
+
+    /// The waiting point to the planner, unless a spin-up delay runs;
+    /// whether it went in.
+    fn push_pending<L: Mutex<T = DeviceLink>>(
+        &mut self,
+        link: &mut L,
+        notice: &mut impl FnMut(Notice),
+    ) -> bool {
+        if !reached(self.planning.generated(), self.hold_until) {
+            return false;
+        }
+        match self.planning.push_pending() {
+            Ok(Some(input)) => {
+                report(link, input, notice);
+                true
+            }
+            Ok(None) => false,
+            Err(e) => {
+                notice(Notice::PlannerRefused(e));
+                false
+            }
+        }
+    }
+
+    /// Step 1: settings changed over the link.
+    fn settings<L: Mutex<T = DeviceLink>>(
+        &mut self,
+        link: &mut L,
+        io: &mut impl MachineIo,
+        notice: &mut impl FnMut(Notice),
+    ) -> bool {
+        let v = self.config_version;
+        let Some(c) =
+            link.lock(|l| (l.config_version != v).then_some((l.config_version, l.config)))
+        else {
+            return false;
+        };
+        let (version, config) = c;
+        let rebuild = config.motion_config() != self.config.motion_config();
+        self.config = config;
+        self.config_version = version;
+        self.latch.set_guard_config(guard_config(&config));
+        if rebuild {
+            // Changes are accepted at rest only: the planner is at rest.
+            let here = self.planning.position();
+            match self.planning.reset(config.motion_config(), here) {
+                Ok(input) => report(link, input, notice),
+                Err(e) => notice(Notice::SettingsRefused(e)),
+            }
+        }
+        if link.lock(|l| l.take_save()) {
+            let r = io.save(&config);
+            link.lock(|l| l.store = r);
+            self.post(DeviceMsg::Stored(r));
+        }
+        true
+    }
+
+    /// Step 2: the alarm state.
+    fn alarm<L: Mutex<T = DeviceLink>>(
+        &mut self,
+        link: &mut L,
+        cmds: &mut Consumer<'_, Cmd, CMD_QUEUE>,
+        setpoints: &mut Producer<'_, Setpoint, SETPOINT_RING>,
+        io: &mut impl MachineIo,
+        room: bool,
+        notice: &mut impl FnMut(Notice),
+    ) -> bool {
+        let mut busy = false;
+        if !self.alarm_done {
+            if !room {
+                return false;
+            }
+            // Wait for the tick to stop (it publishes where).
+            let Some(pos) = self.latch.take_stopped_at() else {
+                return false;
+            };
+            let code = self.latch.alarm().unwrap_or(AlarmCode::EStopLink);
+            self.feeder.abort();
+            self.abort = None;
+            self.waiting = None;
+            self.hold_until = 0;
+            self.homing = None;
+            self.homing_done = false;
+            self.latch.set_homing(false, None);
+            self.spindle.stop();
+            io.outputs(self.spindle.outputs(&self.config));
+            if code != AlarmCode::LinkLoss {
+                // Stopped without deceleration: the position may be lost.
+                self.homed = 0;
+            }
+            match self.planning.reset(self.config.motion_config(), pos) {
+                Ok(input) => report(link, input, notice),
+                Err(e) => notice(Notice::SettingsRefused(e)),
+            }
+            let next_seq = link.lock(|l| l.void_all());
+            self.post(DeviceMsg::Alarm {
+                code,
+                pos_mm: pos.to_bits(),
+                next_seq,
+            });
+            notice(Notice::Alarm(code));
+            self.alarm_done = true;
+            busy = true;
+        }
+        // Everything queued before the alarm is dropped.
+        while link.lock(|l| l.drop_void(cmds)) {
+            busy = true;
+        }
+        if link.lock(|l| l.take_unlock()) && self.latch.advance(Phase::Alarm, Phase::Hold) {
+            // The ring is empty (drained by the tick): refill it at rest
+            // before the tick runs again.
+            self.fill_checked(setpoints);
+            self.latch.advance(Phase::Hold, Phase::Run);
+            self.alarm_done = false;
+            busy = true;
+        }
+        busy
+    }
+
+    /// Step 3: a homing cycle.
+    fn homing_pass<L: Mutex<T = DeviceLink>>(
+        &mut self,
+        link: &mut L,
+        setpoints: &mut Producer<'_, Setpoint, SETPOINT_RING>,
+        room: bool,
+        notice: &mut impl FnMut(Notice),
+    ) -> bool {
+        let Some(mut cycle) = self.homing else {
+            return false;
+        };
+        match self.latch.phase() {
+            Phase::Halt => {
+                if !room {
+                    return false;
+                }
+                let Some(pos) = self.latch.take_stopped_at() else {
+                    return false;
+                };
+                if self.homing_done {
+                    self.finish_homing(link, &cycle, pos, setpoints, notice);
+                    return true;
+                }
+                let watch = cycle.on_halt(pos);
+                self.latch.set_homing(true, watch);
+                self.latch.advance(Phase::Halt, Phase::Hold);
+                self.homing = Some(cycle);
+                self.fill_homing(setpoints);
+                self.latch.advance(Phase::Hold, Phase::Run);
+                true
+            }
+            Phase::Run if !self.homing_done => self.fill_homing(setpoints) > 0,
+            _ => false,
+        }
+    }
+
+    /// The ring from the homing cycle.
+    fn fill_homing(&mut self, setpoints: &mut Producer<'_, Setpoint, SETPOINT_RING>) -> usize {
+        let Some(mut cycle) = self.homing else {
+            return 0;
+        };
+        let mut n = 0;
+        while setpoints.ready() && !self.homing_done {
+            let (sp, event) = cycle.next(self.latch.inputs());
+            match event {
+                homing::Event::None => {}
+                homing::Event::Watch(w) => self.latch.set_homing(true, w),
+                homing::Event::Failed(code) => {
+                    self.latch.trip(code);
+                    break;
+                }
+                homing::Event::Done => {
+                    // Stop the tick where the tool rests; the new
+                    // coordinates take over from there.
+                    self.homing_done = true;
+                    self.latch.advance(Phase::Run, Phase::Halt);
+                }
+            }
+            let _ = setpoints.enqueue(sp);
+            n += 1;
+        }
+        self.homing = Some(cycle);
+        n
+    }
+
+    /// The cycle is done and the tick stopped at `pos`: the homed axes
+    /// take their machine coordinates there.
+    fn finish_homing<L: Mutex<T = DeviceLink>>(
+        &mut self,
+        link: &mut L,
+        cycle: &Cycle,
+        pos: Point3Mm,
+        setpoints: &mut Producer<'_, Setpoint, SETPOINT_RING>,
+        notice: &mut impl FnMut(Notice),
+    ) {
+        let home = cycle.home_position(pos);
+        let (h, p, mut off) = (home.to_bits(), pos.to_bits(), self.latch.offset());
+        for a in 0..3 {
+            off[a] = off[a].wrapping_add(h[a].wrapping_sub(p[a]));
+        }
+        self.latch.set_offset(off);
+        self.latch.set_homing(false, None);
+        self.homed |= cycle.homed();
+        match self.planning.reset(self.config.motion_config(), home) {
+            Ok(input) => report(link, input, notice),
+            Err(e) => notice(Notice::SettingsRefused(e)),
+        }
+        self.homing = None;
+        self.homing_done = false;
+        if self.latch.advance(Phase::Halt, Phase::Hold) {
+            self.fill_checked(setpoints);
+            self.latch.advance(Phase::Hold, Phase::Run);
+        }
+        self.post(DeviceMsg::Homed {
+            axes: cycle.homed(),
+            pos_mm: h,
+        });
+    }
+
+    /// Step 4: the motion.
+    fn motion<L: Mutex<T = DeviceLink>>(
+        &mut self,
+        link: &mut L,
+        cmds: &mut Consumer<'_, Cmd, CMD_QUEUE>,
+        setpoints: &mut Producer<'_, Setpoint, SETPOINT_RING>,
+        io: &mut impl MachineIo,
+        room: bool,
+        notice: &mut impl FnMut(Notice),
+    ) -> bool {
+        let mut busy = false;
+        // Abort; hold, resume, override, force samples.
         if room && link.lock(|l| l.take_abort()) {
             busy = true;
             let points = self.feeder.abort();
             let (c, p) = self.abort.unwrap_or((0, 0));
             self.abort = Some((c, p.wrapping_add(points)));
+            self.waiting = None;
             let input = self.planning.abort();
-            report(link, input, &mut notice);
+            report(link, input, notice);
         }
         if room {
             let mut c = link.lock(|l| core::mem::take(&mut l.controls));
             self.force.apply(&mut c);
             if c != Controls::default() {
                 for input in self.planning.apply(c).into_iter().flatten() {
-                    report(link, input, &mut notice);
+                    report(link, input, notice);
                 }
             }
         }
 
-        // 2. Keep the ring full.
-        self.planning.fill(setpoints);
+        // Keep the ring full.
+        self.fill_checked(setpoints);
+        if self.latch.phase() == Phase::Alarm {
+            return true;
+        }
 
-        // 3. A waiting point into the planner, or one scheduler step.
-        if let Some((commands, points)) = self.abort {
+        // A waiting point into the planner, or one scheduler step.
+        if let Some((mut commands, points)) = self.abort {
             // Drop what the abort voided; report it once the tool is at rest.
             while link.lock(|l| l.drop_void(cmds)) {
-                self.abort = Some((commands.wrapping_add(1), points));
+                commands = commands.wrapping_add(1);
                 busy = true;
             }
-            let (commands, points) = self.abort.unwrap_or((commands, points));
+            self.abort = Some((commands, points));
             if let Some(planned) = self.planning.take_aborted() {
                 let pos_mm = self.planning.position().to_bits();
                 let msg = DeviceMsg::Aborted {
@@ -163,18 +645,16 @@ impl<'a> Background<'a> {
                     notice(Notice::ReportDropped);
                 }
                 self.abort = None;
+                // As Grbl's soft reset: spindle and coolant off.
+                self.spindle.stop();
+                io.outputs(self.spindle.outputs(&self.config));
                 notice(Notice::Aborted);
                 busy = true;
             }
+        } else if let Some(w) = self.waiting {
+            busy |= self.machine_command(w, room, io, notice, link);
         } else if room && self.planning.waiting() {
-            match self.planning.push_pending() {
-                Ok(Some(input)) => {
-                    busy = true;
-                    report(link, input, &mut notice);
-                }
-                Ok(None) => {}
-                Err(e) => notice(Notice::PlannerRefused(e)),
-            }
+            busy |= self.push_pending(link, notice);
         } else if room {
             let next = if self.feeder.is_draining() {
                 busy = true;
@@ -183,10 +663,13 @@ impl<'a> Background<'a> {
                 match link.lock(|l| l.take_command(cmds)) {
                     Taken::Live(cmd) => {
                         busy = true;
+                        if let Cmd::Machine { seq, cmd } = cmd {
+                            self.waiting = Some(Waiting { seq, cmd, at: None });
+                        }
                         self.feeder.command(cmd)
                     }
                     // Voided by an abort the background has not seen yet
-                    // cannot be: the abort is taken first (step 1).
+                    // cannot be: the abort is taken first.
                     Taken::Void => {
                         busy = true;
                         Ok(None)
@@ -195,42 +678,78 @@ impl<'a> Background<'a> {
                 }
             };
             match next {
-                Ok(Some(s)) => match self.planning.take_point(&s) {
-                    Ok(Some(input)) => report(link, input, &mut notice),
-                    Ok(None) => {}
-                    Err(e) => notice(Notice::PlannerRefused(e)),
-                },
+                Ok(Some(s)) => self.take_point(&s, link, notice),
                 Ok(None) => {
                     if self.feeder.take_path_end() {
                         notice(Notice::PathScheduled);
                         let input = self.planning.end_path();
-                        report(link, input, &mut notice);
+                        report(link, input, notice);
                     }
                 }
                 Err(e) => notice(Notice::SchedulerRefused(e)),
             }
         }
-
-        // 4. Credit.
-        link.lock(|l| l.poll(busy));
-
-        // 5. Figures for status replies.
-        let p = &self.planning;
-        let info = BackgroundInfo {
-            points_held: self.feeder.held() as u16,
-            planned: p.planned() as u16,
-            point: p.point_reached(),
-            underruns: p.underruns(),
-            override_percent: p.override_percent(),
-            stack: stack_bytes,
-            generated: p.generated(),
-            checksum: p.checksum().folded(),
-        };
-        if info != self.published {
-            self.published = info;
-            link.lock(|l| l.info = info);
-        }
         busy
+    }
+
+    /// A machine command waits for the path before it to end (the
+    /// scheduler drained, the planner done and the ring executed), then
+    /// takes effect.
+    fn machine_command<L: Mutex<T = DeviceLink>>(
+        &mut self,
+        mut w: Waiting,
+        room: bool,
+        io: &mut impl MachineIo,
+        notice: &mut impl FnMut(Notice),
+        link: &mut L,
+    ) -> bool {
+        if !room {
+            return false;
+        }
+        if self.planning.waiting() {
+            return self.push_pending(link, notice);
+        }
+        if self.feeder.is_draining() {
+            // The points before it.
+            if let Some(s) = self.feeder.drain() {
+                self.take_point(&s, link, notice);
+            }
+            return true;
+        }
+        if self.feeder.take_path_end() {
+            notice(Notice::PathScheduled);
+            let input = self.planning.end_path();
+            report(link, input, notice);
+            return true;
+        }
+        // Done for the ring's depth in a row: the tick executed the stop.
+        let done = self.planning.path_ended() && self.planning.state() == MotionState::Done;
+        if !done {
+            w.at = None;
+            self.waiting = Some(w);
+            return false;
+        }
+        let now = self.planning.generated();
+        let at = *w.at.get_or_insert(now.wrapping_add(SETPOINT_RING as u32));
+        self.waiting = Some(w);
+        if (now.wrapping_sub(at) as i32) < 0 {
+            return false;
+        }
+        let spin_up = self.spindle.apply(w.cmd);
+        io.outputs(self.spindle.outputs(&self.config));
+        if spin_up {
+            let ms = self.config.get(Key::SpinUp) as u64;
+            let ticks = ms * 1000 / self.config.tick_us().max(1) as u64;
+            self.hold_until = now.wrapping_add(ticks.min(u32::MAX as u64 / 2) as u32);
+        }
+        self.post(DeviceMsg::Applied {
+            seq: w.seq,
+            cmd: w.cmd,
+            point: self.planning.point_reached(),
+            tick: now,
+        });
+        self.waiting = None;
+        true
     }
 }
 

@@ -24,6 +24,14 @@ pub enum Cmd {
     },
     /// End of the path: flush the lookahead.
     EndPath,
+    /// A machine command (spindle, coolant): ends the open path and takes
+    /// effect once the tool is at rest at its end (`crate::spindle`).
+    Machine {
+        /// Its sequence number.
+        seq: u32,
+        /// What.
+        cmd: link::MachineCmd,
+    },
 }
 
 impl Cmd {

@@ -58,7 +58,9 @@ impl Feeder {
                 feed_cap: (feed_cap >= 0).then_some(FeedMmPerMin(I32F32::from_bits(feed_cap))),
                 tag,
             }),
-            Cmd::EndPath => {
+            // A machine command ends the path (the background holds the
+            // command until the motion reaches it).
+            Cmd::EndPath | Cmd::Machine { .. } => {
                 self.sched.finish();
                 self.draining = true;
                 Ok(None)

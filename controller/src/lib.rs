@@ -11,7 +11,9 @@
 //!
 //! | module | what |
 //! |---|---|
-//! | [`settings`] | machine limits and rates (build-time), sizes of every queue and lookahead |
+//! | [`settings`] | build-time defaults of the machine settings, sizes of every queue and lookahead |
+//! | [`config`] | the machine settings at run time: ids, units, ranges, the planner's settings from them |
+//! | [`store`] | the settings in a flash sector: versioned, CRC-checked records |
 //! | [`command`] | the path commands queued from the link to the scheduler, checked on arrival |
 //! | [`feeder`] | commands into the fuzzy scheduler (first stage) |
 //! | [`planning`] | scheduled points into the velocity planner, setpoints out, the feeding policy (second stage) |
@@ -21,6 +23,10 @@
 //! | [`steps`] | step generation with real timing: per-tick plans of exact step times, the engine a step timer's interrupt runs (pulse width, low time, DIR setup, polarity, per-axis steps/mm), lag reported |
 //! | [`session`] | the device side of the link: sequence, credit, replies (sans-IO) |
 //! | [`tx`] | the transmit buffer and the background's reserve in it |
+//! | [`alarm`] | the alarm state and the tick's stops, shared by every task (lock-free) |
+//! | [`guard`] | the tick's safety work: inputs debounced, e-stop and hard limits, the stop within the tick |
+//! | [`homing`] | the homing cycle: seek, back off, locate, pull off, machine coordinates |
+//! | [`spindle`] | spindle and coolant commands of the path stream, PWM duty |
 //! | [`background`] | one pass of the firmware's idle loop |
 //! | [`ring`] | lock-free single-producer single-consumer ring, panic-free |
 //! | [`checksum`] | FNV-1a over commanded positions |
@@ -36,11 +42,15 @@
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
 #![deny(missing_docs)]
 
+pub mod alarm;
 pub mod background;
 pub mod checksum;
 pub mod command;
+pub mod config;
 pub mod controls;
 pub mod feeder;
+pub mod guard;
+pub mod homing;
 pub mod planning;
 pub mod replay;
 pub mod ring;
@@ -48,7 +58,9 @@ pub mod session;
 pub mod settings;
 #[cfg(feature = "std")]
 pub mod sim;
+pub mod spindle;
 pub mod stepper;
 pub mod steps;
+pub mod store;
 pub mod tick;
 pub mod tx;

@@ -394,6 +394,47 @@ impl<'a> Planning<'a> {
         t
     }
 
+    /// The state of the last generated tick.
+    pub fn state(&self) -> MotionState {
+        self.last
+    }
+
+    /// Whether the planner's path was ended (a point starts a new one).
+    pub fn path_ended(&self) -> bool {
+        self.ended
+    }
+
+    /// Rebuild the planner with `config` at rest at `pos` (an alarm, a
+    /// homing cycle, new settings): whatever it held, a waiting point and
+    /// an abort in progress are dropped; the counters and the checksum go
+    /// on. `config` is refused (and nothing changes) if the planner does
+    /// not take it. The event to report.
+    pub fn reset(
+        &mut self,
+        config: fuzzy_core::planner::MotionConfig,
+        pos: Point3Mm,
+    ) -> Result<PlanInput, fuzzy_core::planner::ConfigError> {
+        config.validate()?;
+        *self.motion = Plan::new(config)?;
+        // A fresh planner takes its first point.
+        let _ = anchor(self.motion, pos);
+        self.pending = None;
+        self.last = MotionState::Done;
+        self.point = 0;
+        self.merged = false;
+        self.ended = true;
+        self.here = pos;
+        self.pushed = 0;
+        self.aborting = None;
+        self.aborted = None;
+        if self.override_percent != 100 {
+            self.motion.set_override(self.override_percent);
+        }
+        Ok(self.event(link::PlanEvent::Reset {
+            pos_mm: pos.to_bits(),
+        }))
+    }
+
     /// At rest after an abort: drop what is buffered, end the path here.
     fn finish_abort(&mut self, dropped: u32) {
         let unreached = self.pushed.saturating_sub(self.point);

@@ -37,20 +37,37 @@
 //!   next path command is `next_seq` (older ones arriving late are taken
 //!   for resends: acknowledged and ignored).
 //!
+//! - the machine around the motion: `EStop` trips the alarm at once (the
+//!   tick stops at its next period, [`crate::alarm`]); in the alarm state
+//!   every path command is refused (`Alarm`) until `Unlock` (refused while
+//!   the e-stop input is active, `InputActive`; once the background has
+//!   carried out the alarm, path commands after it wait in the queue for
+//!   the unlock to complete); with homing required (`$22`) path commands
+//!   are refused until every axis of the homing passes is homed
+//!   (`NotHomed`), and during a homing cycle (`Busy`); with soft limits on
+//!   (`$20`) a point outside the travel is refused on arrival
+//!   (`OutOfTravel`, a batch all or nothing); `Machine` commands (spindle,
+//!   coolant) are sequenced and queued like points;
+//! - settings (`GetSetting`, `SetSetting`, [`crate::config`]): a write is
+//!   taken only at rest with nothing queued or in an alarm (`Busy`), only
+//!   in range (`OutOfRange`, `UnknownSetting`: nothing changed), and the
+//!   background applies and stores it; `Home` only at rest (`Busy`) with
+//!   homing enabled (`Rejected`); `MachineQuery` is answered at once.
+//!
 //! Sequence numbers and the queue: commands leave the queue in order, so
 //! the next command taken has sequence number `offset + taken`; `offset` is
 //! zero until an abort moves the numbering on.
 
 use fuzzy_core::planner::MotionState;
-use link::{DeviceMsg, ErrorCode, HostMsg, Motion, Status};
+use link::{DeviceMsg, ErrorCode, HostMsg, MachineStatus, Motion, Status, StoreResult};
 
+use crate::alarm::{Latch, Phase, ESTOP};
 use crate::command::{config_from_link, point_from_link, Cmd};
+use crate::config::{Apply, Config, Key, SettingError};
 use crate::controls::{force_from_link, Controls};
 use crate::ring::{Consumer, Producer};
-use crate::settings::{
-    Plan, CMD_CREDIT, CMD_QUEUE, CREDIT_BATCH, FEED_MAX_MM_PER_MIN, PLANNER_POINTS, TICK_HZ,
-    TX_BUFFER,
-};
+use crate::settings::{Plan, CMD_CREDIT, CMD_QUEUE, CREDIT_BATCH, PLANNER_POINTS, TX_BUFFER};
+use crate::spindle::Spindle;
 use crate::tick::TickExecutor;
 use crate::tx::{TxBuffer, BACKGROUND_RESERVE};
 
@@ -229,6 +246,15 @@ pub struct BackgroundInfo {
     pub generated: u32,
     /// Checksum of their positions (folded).
     pub checksum: u32,
+    /// Nothing in the scheduler, the planner at rest at a path's end,
+    /// nothing waiting (a machine command, a spin-up, a homing cycle).
+    pub idle: bool,
+    /// A homing cycle is running.
+    pub homing: bool,
+    /// Axes homed since boot (bit 0 X).
+    pub homed: u8,
+    /// The spindle and coolant.
+    pub spindle: Spindle,
 }
 
 /// What the link's receive side and the background share: the session,
@@ -248,23 +274,41 @@ pub struct DeviceLink {
     noise: NoiseLimit,
     /// The planner's inputs are reported (`HostMsg::Reports`).
     pub reports: bool,
-}
-
-impl Default for DeviceLink {
-    fn default() -> Self {
-        Self::new()
-    }
+    /// The alarm state and the tick's stops, shared with every task.
+    pub latch: &'static Latch,
+    /// The machine settings (changed by `SetSetting`).
+    pub config: Config,
+    /// Counts the changes of `config` (the background follows it).
+    pub config_version: u32,
+    /// A changed setting applies only after a reset.
+    pub restart_needed: bool,
+    /// The settings store: how it was read, or the last write.
+    pub store: StoreResult,
+    /// The settings changed and are to be written to flash.
+    save: bool,
+    /// An unlock the background has to carry out.
+    unlock: bool,
+    /// The background carried out the alarm in force (its queued commands
+    /// are void): path commands after an unlock are taken.
+    alarm_handled: bool,
+    /// A homing cycle to start (axes).
+    home: Option<u8>,
+    /// When the last frame that decoded arrived, µs.
+    pub last_rx_us: u32,
 }
 
 /// What the receive side does with a message.
 enum Reply {
     Ack,
     Status,
+    Machine,
+    Setting(u16, i64),
 }
 
 impl DeviceLink {
-    /// At reset: nothing received, override 100 %.
-    pub const fn new() -> Self {
+    /// At reset: nothing received, override 100 %, the settings `config`
+    /// (as read from the store: `store`), the alarm state in `latch`.
+    pub const fn new(latch: &'static Latch, config: Config, store: StoreResult) -> Self {
         DeviceLink {
             session: Session {
                 next_seq: 0,
@@ -291,6 +335,15 @@ impl DeviceLink {
                 stack: 0,
                 generated: 0,
                 checksum: 0,
+                idle: true,
+                homing: false,
+                homed: 0,
+                spindle: Spindle {
+                    dir: link::SpindleDir::Off,
+                    speed_rpm: 0,
+                    flood: false,
+                    mist: false,
+                },
             },
             abort: false,
             noise: NoiseLimit {
@@ -298,6 +351,16 @@ impl DeviceLink {
                 since_us: 0,
             },
             reports: true,
+            latch,
+            config,
+            config_version: 0,
+            restart_needed: false,
+            store,
+            save: false,
+            unlock: false,
+            alarm_handled: false,
+            home: None,
+            last_rx_us: 0,
         }
     }
 
@@ -307,11 +370,91 @@ impl DeviceLink {
         let bits = plan.accel_limit_mm_s2().to_bits();
         let accel = ((bits.max(0) as u64 + u32::MAX as u64) >> 32).min(u32::MAX as u64) as u32;
         DeviceMsg::Hello {
-            tick_hz: TICK_HZ,
+            tick_hz: self.config.tick_hz(),
             accel_mm_per_s2: accel,
             window_end: self.session.window_end(),
-            feed_max_mm_per_min: FEED_MAX_MM_PER_MIN,
+            feed_max_mm_per_min: self.config.get(Key::FeedMax).clamp(0, u32::MAX as i64) as u32,
             planner_points: PLANNER_POINTS as u16,
+        }
+    }
+
+    /// Commands accepted and not yet taken by the background.
+    fn queued(&self) -> u32 {
+        let s = &self.session;
+        s.next_seq.wrapping_sub(s.offset.wrapping_add(s.taken))
+    }
+
+    /// Whether the machine is at rest with nothing queued or waiting
+    /// (settings may change, a homing cycle may start).
+    fn idle(&self, exec: &TickExecutor) -> bool {
+        self.queued() == 0 && self.info.idle && !self.abort && !exec.now.moving && !self.info.homing
+    }
+
+    /// Whether path commands are refused now, and why.
+    fn path_refusal(&self) -> Option<ErrorCode> {
+        // After an unlock of a handled alarm, path commands wait in the
+        // queue for the background to leave the alarm.
+        if self.latch.phase() == Phase::Alarm && !(self.unlock && self.alarm_handled) {
+            return Some(ErrorCode::Alarm);
+        }
+        if self.info.homing || self.home.is_some() {
+            return Some(ErrorCode::Busy);
+        }
+        if self.config.on(Key::Homing) {
+            let need = self.config.homing_passes().iter().fold(0, |m, p| m | p);
+            if self.info.homed & need != need {
+                return Some(ErrorCode::NotHomed);
+            }
+        }
+        None
+    }
+
+    /// An unlock to carry out (taken once).
+    pub fn take_unlock(&mut self) -> bool {
+        let u = core::mem::take(&mut self.unlock);
+        if u {
+            self.alarm_handled = false;
+        }
+        u
+    }
+
+    /// A homing cycle to start (taken once).
+    pub fn take_home(&mut self) -> Option<u8> {
+        self.home.take()
+    }
+
+    /// The settings are to be written (taken once).
+    pub fn take_save(&mut self) -> bool {
+        core::mem::take(&mut self.save)
+    }
+
+    /// Every path command accepted so far is void (an alarm): like an
+    /// abort, without the controlled stop (the background drops them).
+    /// Returns the sequence number the next path command must carry.
+    pub fn void_all(&mut self) -> u32 {
+        let next = self.session.next_seq;
+        self.session.abort(next);
+        self.abort = false;
+        self.unlock = false;
+        self.alarm_handled = true;
+        next
+    }
+
+    /// The machine status reply.
+    pub fn machine_status(&self) -> MachineStatus {
+        let i = &self.info;
+        MachineStatus {
+            alarm: self.latch.alarm(),
+            alarms: self.latch.alarms(),
+            homing: i.homing,
+            homed: i.homed,
+            inputs: self.latch.inputs(),
+            spindle: i.spindle.dir,
+            speed_rpm: i.spindle.speed_rpm,
+            flood: i.spindle.flood,
+            mist: i.spindle.mist,
+            store: self.store,
+            restart_needed: self.restart_needed,
         }
     }
 
@@ -324,11 +467,16 @@ impl DeviceLink {
         frame: Result<HostMsg, ErrorCode>,
         queue: &mut Producer<'_, Cmd, CMD_QUEUE>,
         now_us: u32,
-        exec: impl FnOnce() -> TickExecutor,
+        mut exec: impl FnMut() -> TickExecutor,
     ) -> Option<ErrorCode> {
-        let reply = match frame.and_then(|m| self.handle(m, queue)) {
+        if frame.is_ok() {
+            self.last_rx_us = now_us;
+        }
+        let reply = match frame.and_then(|m| self.handle(m, queue, &mut exec)) {
             Ok(Reply::Ack) => self.session.ack(),
             Ok(Reply::Status) => DeviceMsg::Status(self.status(&exec())),
+            Ok(Reply::Machine) => DeviceMsg::Machine(self.machine_status()),
+            Ok(Reply::Setting(id, value)) => DeviceMsg::Setting { id, value },
             Err(code) => {
                 self.session.bad_frames = self.session.bad_frames.wrapping_add(1);
                 let refused = DeviceMsg::Error {
@@ -359,9 +507,70 @@ impl DeviceLink {
         &mut self,
         msg: HostMsg,
         queue: &mut Producer<'_, Cmd, CMD_QUEUE>,
+        exec: &mut impl FnMut() -> TickExecutor,
     ) -> Result<Reply, ErrorCode> {
+        let path = matches!(
+            msg,
+            HostMsg::StartPath { .. }
+                | HostMsg::Point { .. }
+                | HostMsg::Points { .. }
+                | HostMsg::EndPath { .. }
+                | HostMsg::Machine { .. }
+        );
+        if let Some(code) = path.then(|| self.path_refusal()).flatten() {
+            return Err(code);
+        }
         let (seq, cmd) = match msg {
             HostMsg::StatusQuery => return Ok(Reply::Status),
+            HostMsg::MachineQuery => return Ok(Reply::Machine),
+            HostMsg::EStop => {
+                self.latch.trip(link::AlarmCode::EStopLink);
+                return Ok(Reply::Ack);
+            }
+            HostMsg::Unlock => {
+                if self.latch.phase() == Phase::Alarm {
+                    if self.latch.inputs() & ESTOP != 0 {
+                        return Err(ErrorCode::InputActive);
+                    }
+                    self.unlock = true;
+                }
+                return Ok(Reply::Ack);
+            }
+            HostMsg::Home { axes } => {
+                if self.latch.phase() == Phase::Alarm {
+                    return Err(ErrorCode::Alarm);
+                }
+                if !self.config.on(Key::Homing) {
+                    return Err(ErrorCode::Rejected);
+                }
+                if !self.idle(&exec()) || self.home.is_some() {
+                    return Err(ErrorCode::Busy);
+                }
+                self.home = Some(axes & 7);
+                return Ok(Reply::Ack);
+            }
+            HostMsg::GetSetting { id } => {
+                let v = self
+                    .config
+                    .by_id(id)
+                    .map_err(|_| ErrorCode::UnknownSetting)?;
+                return Ok(Reply::Setting(id, v));
+            }
+            HostMsg::SetSetting { id, value } => {
+                let alarm = self.latch.phase() == Phase::Alarm;
+                if !alarm && !self.idle(&exec()) {
+                    return Err(ErrorCode::Busy);
+                }
+                let info = self.config.set(id, value).map_err(|e| match e {
+                    SettingError::Unknown => ErrorCode::UnknownSetting,
+                    SettingError::OutOfRange => ErrorCode::OutOfRange,
+                })?;
+                self.config_version = self.config_version.wrapping_add(1);
+                self.save = true;
+                self.restart_needed |= info.apply == Apply::Restart;
+                return Ok(Reply::Setting(id, value));
+            }
+            HostMsg::Machine { seq, cmd } => (seq, Some(Cmd::Machine { seq, cmd })),
             HostMsg::Hold => {
                 self.controls.hold = Some(true);
                 return Ok(Reply::Ack);
@@ -398,6 +607,9 @@ impl DeviceLink {
                     let p = p?;
                     point_from_link(0, p.pos_mm, p.feed_cap_mm_per_min)
                         .ok_or(ErrorCode::OutOfRange)?;
+                    if !self.config.within_travel(p.pos_mm) {
+                        return Err(ErrorCode::OutOfTravel);
+                    }
                 }
                 for (i, p) in batch.points().enumerate() {
                     let p = p?;
@@ -419,10 +631,15 @@ impl DeviceLink {
                 seq,
                 pos_mm,
                 feed_cap_mm_per_min,
-            } => (
-                seq,
-                point_from_link(seq, pos_mm, feed_cap_mm_per_min).map(Cmd::point),
-            ),
+            } => {
+                if !self.config.within_travel(pos_mm) && !before(seq, self.session.next_seq) {
+                    return Err(ErrorCode::OutOfTravel);
+                }
+                (
+                    seq,
+                    point_from_link(seq, pos_mm, feed_cap_mm_per_min).map(Cmd::point),
+                )
+            }
             HostMsg::EndPath { seq } => (seq, Some(Cmd::EndPath)),
         };
         self.session.accept(seq, cmd, queue)?;
@@ -479,6 +696,8 @@ impl DeviceLink {
         let (l, i) = (&self.session, &self.info);
         Status {
             motion: match exec.now.state {
+                _ if self.latch.phase() == Phase::Alarm => Motion::Alarm,
+                _ if i.homing => Motion::Homing,
                 MotionState::Idle | MotionState::Done => Motion::Idle,
                 MotionState::Moving => Motion::Running,
                 MotionState::Holding => Motion::Held,

@@ -5,22 +5,29 @@
 //!
 //! [`VirtualDevice::run_tick`] does what a firmware tick period does: the
 //! background until it has nothing left to do (on the target it runs many
-//! passes per tick), then the tick itself.
+//! passes per tick), then the tick itself: the inputs sampled (a simulated
+//! e-stop and limit switches at positions of the simulated axes, in
+//! steps), [`Guard::tick`] and the executor.
 
-use link::{FrameReader, HostMsg};
+use link::{FrameReader, HostMsg, StoreResult};
 
 use fuzzy_core::units::Point3Mm;
 
-use crate::background::{Background, Notice, StartError};
+use crate::alarm::{Latch, ESTOP};
+use crate::background::{Background, MachineIo, Notice, StartError};
 use crate::command::Cmd;
+use crate::config::Config;
+use crate::guard::{switch_input, Guard};
 use crate::planning::Setpoint;
 use crate::ring::{Consumer, Producer, Ring};
 use crate::session::DeviceLink;
-use crate::settings::{Plan, CMD_QUEUE, MOTION_CONFIG, SETPOINT_RING};
+use crate::settings::{Plan, CMD_QUEUE, SETPOINT_RING};
+use crate::spindle::MachineOutputs;
 use crate::stepper::StepOutput;
+use crate::store::{self, MemFlash, Store};
 use crate::tick::TickExecutor;
 
-/// Positions the tick sent to the axes.
+/// Positions the tick sent to the axes (the step output's coordinates).
 #[derive(Clone, Debug, Default)]
 pub struct Recorded {
     /// Every commanded position, in order.
@@ -33,6 +40,48 @@ impl StepOutput for Recorded {
     }
 }
 
+/// A limit switch on a simulated axis: closed from `at_steps` on (towards
+/// the axis's `max` end, or its minimum end).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SimSwitch {
+    /// Axis, 0 X.
+    pub axis: usize,
+    /// At the axis's maximum end.
+    pub max: bool,
+    /// Where it closes, steps of the step output.
+    pub at_steps: i64,
+}
+
+/// The spindle, coolant and store of the virtual machine.
+#[derive(Clone, Debug, Default)]
+pub struct SimMachine {
+    /// The flash sector of the settings.
+    pub flash: MemFlash,
+    store: Option<Store>,
+    /// Every change of the spindle and coolant outputs, with the number of
+    /// positions sent to the axes before it.
+    pub outputs: Vec<(usize, MachineOutputs)>,
+    /// Positions sent so far (kept by the device).
+    sent: usize,
+}
+
+impl MachineIo for SimMachine {
+    fn outputs(&mut self, o: MachineOutputs) {
+        if self.outputs.last().map(|l| l.1) != Some(o) {
+            self.outputs.push((self.sent, o));
+        }
+    }
+    fn save(&mut self, c: &Config) -> StoreResult {
+        let mut s = match self.store {
+            Some(s) => s,
+            None => store::load(&self.flash).2,
+        };
+        let r = s.save(&mut self.flash, c);
+        self.store = Some(s);
+        r
+    }
+}
+
 /// Background passes per tick at most (a pass that does work is followed
 /// by another, as the firmware's idle loop does).
 const PASSES_PER_TICK: usize = 64;
@@ -41,44 +90,79 @@ const PASSES_PER_TICK: usize = 64;
 pub struct VirtualDevice {
     link: DeviceLink,
     exec: TickExecutor,
+    guard: Guard,
+    latch: &'static Latch,
     reader: FrameReader,
     background: Background<'static>,
     cmd_tx: Producer<'static, Cmd, CMD_QUEUE>,
     cmd_rx: Consumer<'static, Cmd, CMD_QUEUE>,
     sp_tx: Producer<'static, Setpoint, SETPOINT_RING>,
     sp_rx: Consumer<'static, Setpoint, SETPOINT_RING>,
+    /// Tick periods since reset (the device's clock).
+    periods: u32,
+    tick_us: u32,
     /// What the axes were told.
     pub axes: Recorded,
     /// What the background reported.
     pub notices: Vec<Notice>,
+    /// The spindle, coolant and settings flash.
+    pub machine: SimMachine,
+    /// The e-stop input is active.
+    pub estop: bool,
+    /// Limit switches on the axes.
+    pub switches: Vec<SimSwitch>,
+    /// The drivers were enabled at the last tick.
+    pub drivers_enabled: bool,
 }
 
 impl VirtualDevice {
-    /// Fresh from reset, at the origin, its hello in the transmit buffer.
-    /// (Its queues and planner are leaked: a few tens of KB a device.)
+    /// Fresh from reset with nothing stored, at the origin, its hello in
+    /// the transmit buffer. (Its queues and planner are leaked: a few
+    /// tens of KB a device.)
     pub fn new() -> Result<Self, StartError> {
+        Self::with_flash(MemFlash::default())
+    }
+
+    /// Fresh from reset with the settings stored in `flash` (as the
+    /// firmware reads them at start-up).
+    pub fn with_flash(flash: MemFlash) -> Result<Self, StartError> {
+        let (config, stored, store) = store::load(&flash);
         let cmds: &'static mut Ring<Cmd, CMD_QUEUE> = Box::leak(Box::new(Ring::new()));
         let sps: &'static mut Ring<Setpoint, SETPOINT_RING> = Box::leak(Box::new(Ring::new()));
-        let plan = Plan::new(MOTION_CONFIG).map_err(StartError::PlannerSettings)?;
+        let latch: &'static Latch = Box::leak(Box::new(Latch::new()));
+        let plan = Plan::new(config.motion_config()).map_err(StartError::PlannerSettings)?;
         let plan: &'static mut Plan = Box::leak(Box::new(plan));
         let (cmd_tx, cmd_rx) = cmds.split();
         let (mut sp_tx, sp_rx) = sps.split();
-        let mut background = Background::new(plan, Point3Mm::ORIGIN)?;
+        let mut background = Background::new(plan, Point3Mm::ORIGIN, latch, config)?;
         background.fill(&mut sp_tx);
-        let mut link = DeviceLink::new();
+        let mut link = DeviceLink::new(latch, config, stored);
         let hello = link.hello(background.planning().motion());
         link.tx.send(&hello, 0);
+        link.tx.send(&link::DeviceMsg::Stored(stored), 0);
         Ok(VirtualDevice {
             link,
             exec: TickExecutor::new(Point3Mm::ORIGIN),
+            guard: Guard::new(),
+            latch,
             reader: FrameReader::new(),
             background,
             cmd_tx,
             cmd_rx,
             sp_tx,
             sp_rx,
+            periods: 0,
+            tick_us: config.tick_us(),
             axes: Recorded::default(),
             notices: Vec::new(),
+            machine: SimMachine {
+                flash,
+                store: Some(store),
+                ..SimMachine::default()
+            },
+            estop: false,
+            switches: Vec::new(),
+            drivers_enabled: true,
         })
     }
 
@@ -94,27 +178,67 @@ impl VirtualDevice {
         }
     }
 
-    /// The device's clock: ticks so far × the tick period, µs (wrapping).
+    /// The device's clock: tick periods so far × the tick period, µs
+    /// (wrapping).
     pub fn now_us(&self) -> u32 {
-        self.exec.ticks.wrapping_mul(MOTION_CONFIG.tick_us)
+        self.periods.wrapping_mul(self.tick_us)
     }
 
     /// One background pass; whether it did work.
     pub fn background_pass(&mut self) -> bool {
         let notices = &mut self.notices;
         let stack = 0;
+        let now_us = self.periods.wrapping_mul(self.tick_us);
+        self.machine.sent = self.axes.positions.len();
         self.background.step(
             &mut rtic_core::Exclusive(&mut self.link),
             &mut self.cmd_rx,
             &mut self.sp_tx,
+            &mut self.machine,
+            now_us,
             stack,
             |n| notices.push(n),
         )
     }
 
+    /// Each axis's position in steps (the step output's count, at the
+    /// configured steps/mm).
+    pub fn steps(&self) -> [i64; 3] {
+        let p = self
+            .axes
+            .positions
+            .last()
+            .copied()
+            .unwrap_or(Point3Mm::ORIGIN);
+        let c = self.background.config();
+        let b = p.to_bits();
+        [0, 1, 2].map(|a| {
+            let milli = c.steps_per_mm_milli(a) as i128;
+            ((b[a] as i128 * milli).div_euclid(1000) >> 32) as i64
+        })
+    }
+
+    /// The input word the pins would show now (before the polarity).
+    fn inputs(&self) -> u8 {
+        let steps = self.steps();
+        let mut active = if self.estop { ESTOP } else { 0 };
+        for s in &self.switches {
+            active |= switch_input(s.axis, s.max, steps[s.axis], s.at_steps);
+        }
+        active ^ self.latch.guard_config().invert
+    }
+
     /// The tick interrupt.
     pub fn tick(&mut self) {
-        self.exec.tick(&mut self.sp_rx, &mut self.axes);
+        self.periods = self.periods.wrapping_add(1);
+        let raw = self.inputs();
+        self.drivers_enabled = self.guard.tick(
+            raw,
+            self.latch,
+            &mut self.exec,
+            &mut self.sp_rx,
+            &mut self.axes,
+        );
     }
 
     /// A tick period: background passes until idle, then the tick.
@@ -140,6 +264,16 @@ impl VirtualDevice {
     /// The tick's state.
     pub fn exec(&self) -> &TickExecutor {
         &self.exec
+    }
+
+    /// The tick's safety state.
+    pub fn guard(&self) -> &Guard {
+        &self.guard
+    }
+
+    /// The alarm state shared by the tasks.
+    pub fn latch(&self) -> &Latch {
+        self.latch
     }
 
     /// The shared link state (session, figures).

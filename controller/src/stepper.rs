@@ -25,6 +25,15 @@ pub trait StepOutput {
     fn report(&self) -> StepReport {
         StepReport::default()
     }
+    /// Stop at once (an alarm, a homing switch): no step after this call,
+    /// steps planned and not yet emitted dropped. `at` is the last
+    /// commanded position. Returns where the steps stopped (mm, in the
+    /// setpoints' coordinates) once known (`None`: not yet, call again
+    /// next tick); the next [`Self::update`] or [`Self::hold`] resumes
+    /// from there. An output without a pipeline stops at `at`.
+    fn stop(&mut self, at: Point3Mm) -> Option<Point3Mm> {
+        Some(at)
+    }
 }
 
 /// Pins that take a batch of [`Edges`] at once.
@@ -74,6 +83,11 @@ pub struct StepQueue<'a> {
     plans: PlanTx<'a>,
     shared: &'a StepShared,
     overruns: u32,
+    /// The stop asked for and not yet resumed from.
+    halting: Option<u32>,
+    /// Where the steps stopped, mm (once the engine said).
+    halted_at: Option<Point3Mm>,
+    kick: fn(),
 }
 
 impl<'a> StepQueue<'a> {
@@ -85,6 +99,25 @@ impl<'a> StepQueue<'a> {
             plans,
             shared,
             overruns: 0,
+            halting: None,
+            halted_at: None,
+            kick: || {},
+        }
+    }
+
+    /// `kick` makes the engine run now (on a board: pend the step timer's
+    /// interrupt, whose priority is above the tick's), so that a stop takes
+    /// effect within [`StepOutput::stop`].
+    pub fn with_kick(self, kick: fn()) -> Self {
+        StepQueue { kick, ..self }
+    }
+
+    /// Back from a stop: the engine takes plans again (the planner was
+    /// moved to where it stopped).
+    fn resume(&mut self) {
+        if self.halting.take().is_some() {
+            self.halted_at = None;
+            self.shared.release();
         }
     }
 
@@ -100,13 +133,33 @@ impl<'a> StepQueue<'a> {
 
 impl StepOutput for StepQueue<'_> {
     fn update(&mut self, pos: Point3Mm) {
+        self.resume();
         let plan = self.planner.plan(pos);
         self.send(plan);
     }
 
     fn hold(&mut self) {
+        self.resume();
         let plan = self.planner.hold();
         self.send(plan);
+    }
+
+    fn stop(&mut self, _at: Point3Mm) -> Option<Point3Mm> {
+        let seq = match self.halting {
+            Some(seq) => seq,
+            None => {
+                let seq = self.shared.request_halt();
+                self.halting = Some(seq);
+                seq
+            }
+        };
+        if self.halted_at.is_none() {
+            (self.kick)();
+            if let Some(steps) = self.shared.halted_at(seq) {
+                self.halted_at = Some(self.planner.rebase(steps));
+            }
+        }
+        self.halted_at
     }
 
     fn report(&self) -> StepReport {
@@ -154,6 +207,7 @@ impl<'a, P: StepPins> SoftSteps<'a, P> {
     }
 
     fn run(&mut self) {
+        self.engine.poll_halt();
         let end = self.now.wrapping_add(self.window).wrapping_sub(1);
         let pins = &mut self.pins;
         self.engine.run_until(end, |e, _| pins.write(e));
@@ -174,6 +228,15 @@ impl<P: StepPins> StepOutput for SoftSteps<'_, P> {
 
     fn report(&self) -> StepReport {
         self.queue.report()
+    }
+
+    fn stop(&mut self, at: Point3Mm) -> Option<Point3Mm> {
+        if self.queue.stop(at).is_none() {
+            self.engine.poll_halt();
+        }
+        // The window runs on: pulses started end, nothing else.
+        self.run();
+        self.queue.stop(at)
     }
 }
 
@@ -361,5 +424,41 @@ mod tests {
         }
         assert_eq!(replay(&log)[0], 1000);
         assert_eq!(a.report().lag_now_steps, 0);
+    }
+
+    #[test]
+    fn a_stop_on_the_timer_path_drops_the_armed_step_and_says_where() {
+        let mut rig = Rig::new([100; 3]);
+        let (tx, rx) = rig.ring.split();
+        let planner = Planner::new(rig.spm, &rig.timing, Point3Mm::ORIGIN);
+        let mut q = StepQueue::new(planner, tx, &rig.shared);
+        let w = rig.timing.window;
+        let first = first_window(0, w);
+        let mut engine = StepEngine::new(rig.timing, rx, &rig.shared, [0; 3], first);
+        // Two ticks of 50 steps queued, the engine halfway into the first.
+        q.update(mm(0.5, 0.0, 0.0));
+        q.update(mm(1.0, 0.0, 0.0));
+        let mut steps = 0;
+        engine.run_until(first + w / 2, |e, _| steps += i64::from(e.set & 1));
+        assert!((20..30).contains(&steps), "{steps}");
+        while engine.due().edges.set & 1 == 0 {
+            let d = engine.due();
+            engine.done(d.at);
+        }
+        assert_eq!(q.stop(mm(1.0, 0.0, 0.0)), None, "the engine has not run");
+        assert!(engine.poll_halt());
+        assert_eq!(engine.due().edges.set & 1, 0, "the armed step dropped");
+        engine.run_until(first + 10 * w, |e, _| steps += i64::from(e.set & 1));
+        assert_eq!(engine.position()[0], steps);
+        let at = q.stop(mm(1.0, 0.0, 0.0)).unwrap();
+        assert_eq!(q.planner.whole_steps(at)[0], steps);
+        assert_eq!(engine.report().fault(), None);
+        // Resumed: the next plan starts where the steps stopped.
+        q.update(at);
+        assert!(!engine.poll_halt(), "a resume changes no batch");
+        engine.run_until(first + 12 * w, |e, _| steps += i64::from(e.set & 1));
+        assert!(!engine.halted());
+        assert_eq!(engine.position()[0], steps);
+        assert_eq!(engine.report().lag_ticks, 0);
     }
 }

@@ -179,7 +179,9 @@ mod tests {
         for _ in 0..3 {
             e.tick(&mut sp_rx, &mut out);
         }
-        let s = DeviceLink::new().status(&e);
+        let latch: &'static crate::alarm::Latch = Box::leak(Box::default());
+        let link = DeviceLink::new(latch, crate::config::Config::DEFAULT, Default::default());
+        let s = link.status(&e);
         assert!(s.step_lag_ticks >= 3, "{s:?}");
         assert!(s.step_lag_max_steps >= 1000, "{s:?}");
         assert_eq!(s.step_late_ticks, 0);

@@ -800,3 +800,24 @@ fn batched_points_schedule_the_same_bits_in_a_third_of_the_bytes() {
     assert!(per <= 12.0, "{per} bytes a point");
     assert!(bytes2 * 3 <= bytes1 + bytes1 / 5, "{bytes2} vs {bytes1}");
 }
+
+#[test]
+fn an_abort_reports_every_queued_command_it_dropped() {
+    let pts = line(600, 0.5, 0.0);
+    let mut b = Bench::new();
+    b.path(&pts, true);
+    b.run_until(20_000, |s| feed(s) >= 2997.0);
+    // The planner and the scheduler are full, the queue fills up.
+    b.run(50);
+    let s = b.status();
+    let queued = s.next_seq - (s.window_end - CMD_CREDIT);
+    assert!(queued > 50, "{queued} queued: {s:?}");
+    let abort = b.client.abort();
+    b.send(&abort);
+    b.run_until(5_000, |s| s.motion == Motion::Idle);
+    b.run(20);
+    let Some(DeviceMsg::Aborted { commands, .. }) = b.client.aborted() else {
+        panic!("no report")
+    };
+    assert_eq!(commands, queued, "every queued command counted");
+}

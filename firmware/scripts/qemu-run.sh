@@ -31,7 +31,7 @@ if [ "$name" = cost ]; then
     run qemu-system-arm "${args[@]}" -kernel "$elf" "$@"
     exit $?
 fi
-echo "[qemu-run] $name: USART1 on ${serial} (stream a path with: cargo run -p system-tests --bin stream -- PATH.csv)" >&2
+echo "[qemu-run] $name: USART1 on ${serial} (send a program with: cargo run --release -p sender -- send FILE --tcp 127.0.0.1:7878)" >&2
 if command -v defmt-print >/dev/null; then
     set -o pipefail
     run qemu-system-arm "${args[@]}" -kernel "$elf" "$@" | defmt-print -e "$elf"

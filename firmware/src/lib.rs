@@ -4,13 +4,17 @@
 //!
 //! | module | what |
 //! |---|---|
-//! | [`board`] | the chip and pins: clocks, USART1, step/dir GPIO (one file per board) |
+//! | [`board`] | the chip: clocks, USART1, GPIO, PWM timer, flash, watchdog |
+//! | [`boards`] | one pin map per board (QEMU, STM32F4-Discovery, BTT SKR 2) |
 //! | [`measure`] | SysTick as tick timer and cycle counter, stack high-water mark |
+//! | [`step_output`] | the step engine wired to the step timer (its interrupt), or run by the tick (QEMU) |
 #![no_std]
 #![deny(missing_docs)]
 
 pub mod board;
+pub mod boards;
 pub mod measure;
+pub mod step_output;
 
 #[cfg(feature = "qemu")]
 mod logger;
@@ -59,7 +63,10 @@ fn panic(_: &core::panic::PanicInfo) -> ! {
     unsafe { panic_path_found() }
 }
 
+/// A hard fault: the drivers and the spindle off at once (the step output
+/// stops with the core), then stop.
 #[cortex_m_rt::exception]
 unsafe fn HardFault(_frame: &cortex_m_rt::ExceptionFrame) -> ! {
+    board::fault_outputs_off();
     fail()
 }

@@ -4,18 +4,21 @@
 //!
 //! | task | runs on | priority | does |
 //! |---|---|---|---|
-//! | `step` | TIM2 compare 1 (board only) | 4 (highest) | the batch of step/dir edges due now to the pins, then the next batch from the step engine and the compare set to its time ([`controller::steps::engine`]) |
-//! | `tick` | SysTick (default 1 kHz) | 3 | next setpoint from the ring to the step output: the tick's step plan queued to the engine ([`controller::tick`], [`controller::stepper::StepQueue`]); under QEMU the engine itself run over the tick's window ([`controller::stepper::SoftSteps`]) |
+//! | `step` | TIM2 compare 1 (board only) | 4 (highest) | the batch of step/dir edges due now to the pins, then the next batch from the step engine and the compare set to its time; a stop the tick asked for first ([`fuzzy_firmware::step_output`]) |
+//! | `tick` | SysTick (default 1 kHz) | 3 | inputs, alarms and stops ([`controller::guard`]), next setpoint from the ring to the step output: the tick's step plan queued to the engine ([`controller::tick`]; under QEMU the engine itself run over the tick's window), driver enable |
 //! | `link_rx` | USART1 receive | 2 | bytes → frames → the link session ([`controller::session`]) |
-//! | `idle` | background | 0 | transmit, then one background pass ([`controller::background`]) |
+//! | `idle` | background | 0 | watchdog, transmit, then one background pass ([`controller::background`]) |
 //!
 //! Queues (`controller::ring`, lock-free): commands link → idle (their free
-//! room is the host's credit), setpoints idle → tick; step plans tick →
-//! step go through `controller::steps::PlanQueue` (atomics, no critical
-//! section), and the engine's figures come back through atomics
-//! (`controller::steps::StepShared`). The link's shared
-//! state (`DeviceLink`: session, transmit buffer, controls, figures) is one
-//! resource of `link_rx` and `idle`.
+//! room is the host's credit), setpoints idle → tick, step plans tick →
+//! step (`controller::steps::PlanQueue`, atomics; the engine's figures and
+//! stops through `controller::steps::StepShared`). The link's shared
+//! state (`DeviceLink`: session, transmit buffer, controls, settings,
+//! figures) is one resource of `link_rx` and `idle`; the alarm state
+//! (`controller::alarm::Latch`, atomics) is shared by all three without a
+//! lock. The settings are read from flash at start-up
+//! (`controller::store`); a reset by the watchdog starts in the alarm
+//! state.
 #![no_std]
 #![no_main]
 
@@ -25,28 +28,50 @@ use fuzzy_firmware as _;
 mod app {
     use core::mem::MaybeUninit;
 
-    use controller::background::{Background, Notice};
+    use controller::alarm::Latch;
+    use controller::background::{Background, MachineIo, Notice};
     use controller::command::Cmd;
+    use controller::config::{Config, Key};
+    use controller::guard::Guard;
     use controller::planning::Setpoint;
     use controller::ring::{Consumer, Producer, Ring};
     use controller::session::DeviceLink;
-    use controller::settings::{
-        Plan, CMD_QUEUE, MOTION_CONFIG, SETPOINT_RING, STEP_CONFIG, STEP_TIMER_HZ, TICK_HZ,
-    };
-    #[cfg(not(feature = "qemu"))]
-    use controller::stepper::StepPins;
-    use controller::stepper::{first_window, StepQueue};
-    use controller::steps::{PlanQueue, Planner, StepEngine, StepShared};
-    // (Imported in both builds: RTIC names the types of cfg'd resources.)
-    #[allow(unused_imports)]
-    use controller::steps::Due;
+    use controller::settings::{Plan, CMD_QUEUE, SETPOINT_RING};
+    use controller::spindle::MachineOutputs;
+    use controller::steps::{PlanQueue, StepShared};
+    use controller::store::{self, Store};
     use controller::tick::TickExecutor;
     use fuzzy_core::units::Point3Mm;
-    use fuzzy_firmware::board::{self, UsartRx, UsartTx};
-    #[allow(unused_imports)]
-    use fuzzy_firmware::board::{StepGpio, StepTimer};
+    use fuzzy_firmware::board::{
+        self, Enable, Inputs, Outputs, SettingsFlash, UsartRx, UsartTx, Watchdog,
+    };
     use fuzzy_firmware::measure::{self, StackProbe};
-    use link::{FrameReader, HostMsg};
+    #[allow(unused_imports)] // (RTIC names the types of cfg'd resources)
+    use fuzzy_firmware::step_output::{self, StepIsr, Steps};
+    use link::{AlarmCode, DeviceMsg, FrameReader, HostMsg, StoreResult};
+
+    /// The spindle, coolant and settings store, as the background drives
+    /// them.
+    pub struct Machine {
+        outputs: Outputs,
+        flash: SettingsFlash,
+        store: Store,
+        watchdog: Watchdog,
+    }
+
+    impl MachineIo for Machine {
+        fn outputs(&mut self, o: MachineOutputs) {
+            self.outputs.set(o);
+        }
+
+        fn save(&mut self, c: &Config) -> StoreResult {
+            // An erase stalls the core for up to 2 s: the watchdog waits.
+            self.watchdog.long(true);
+            let r = self.store.save(&mut self.flash, c);
+            self.watchdog.long(false);
+            r
+        }
+    }
 
     #[shared]
     struct Shared {
@@ -55,96 +80,48 @@ mod app {
         port: UsartTx,
     }
 
-    /// The tick's step output: plans to the step timer's engine on a
-    /// board, the engine run by the tick itself under QEMU.
-    #[cfg(not(feature = "qemu"))]
-    type Steps = StepQueue<'static>;
-    #[cfg(feature = "qemu")]
-    type Steps = controller::stepper::SoftSteps<'static, board::StepGpio>;
-
     #[local]
     struct Local {
         sp_rx: Consumer<'static, Setpoint, SETPOINT_RING>,
         steps: Steps,
         #[cfg(not(feature = "qemu"))]
-        engine: StepEngine<'static>,
-        #[cfg(not(feature = "qemu"))]
-        step_timer: StepTimer,
-        #[cfg(not(feature = "qemu"))]
-        step_pins: StepGpio,
-        #[cfg(not(feature = "qemu"))]
-        pending: Due,
+        step_isr: StepIsr,
+        guard: Guard,
+        inputs: Inputs,
+        enable: Enable,
+        latch: &'static Latch,
         rx: UsartRx,
         reader: FrameReader,
         cmd_tx: Producer<'static, Cmd, CMD_QUEUE>,
         cmd_rx: Consumer<'static, Cmd, CMD_QUEUE>,
         sp_tx: Producer<'static, Setpoint, SETPOINT_RING>,
         background: Background<'static>,
+        machine: Machine,
     }
 
     #[init(local = [
         cmds: Ring<Cmd, CMD_QUEUE> = Ring::new(),
         setpoints: Ring<Setpoint, SETPOINT_RING> = Ring::new(),
         plan: MaybeUninit<Plan> = MaybeUninit::uninit(),
+        latch_slot: Latch = Latch::new(),
         plans: PlanQueue = PlanQueue::new(),
         step_shared: StepShared = StepShared::new(),
     ])]
     fn init(cx: init::Context) -> (Shared, Local, init::Monotonics) {
         let mut core = cx.core;
-        #[allow(unused_mut)] // the pins and timer move out on a board
         let mut b = board::init(cx.device);
-        let timing = match STEP_CONFIG.timing(STEP_TIMER_HZ, TICK_HZ) {
-            Ok(t) => t,
-            Err(e) => {
-                defmt::error!("bad step settings: {}", e);
-                fuzzy_firmware::fail()
-            }
-        };
-        let (plan_tx, plan_rx) = cx.local.plans.split();
-        let shared: &'static StepShared = cx.local.step_shared;
-        let planner = Planner::new(
-            STEP_CONFIG.axes.map(|a| a.steps_per_mm),
-            &timing,
-            Point3Mm::ORIGIN,
-        );
-        let start = planner.position();
-        let queue = StepQueue::new(planner, plan_tx, shared);
-        // The first tick comes one period after SysTick starts (below);
-        // the engine's first window 1.5 ticks after that.
-        #[cfg(not(feature = "qemu"))]
-        let (steps, engine, pending) = {
-            let first = first_window(
-                b.step_timer.now().wrapping_add(timing.window),
-                timing.window,
-            );
-            let mut engine = StepEngine::new(timing, plan_rx, shared, start, first);
-            b.step_pins.write(engine.idle_edges());
-            let pending = engine.due();
-            if b.step_timer.arm(pending.at) {
-                // Cannot happen (half a tick ahead); the interrupt is then
-                // simply late.
-                defmt::warn!("step timer armed late");
-            }
-            (queue, engine, pending)
-        };
-        #[cfg(feature = "qemu")]
-        let steps = {
-            let engine = StepEngine::new(
-                timing,
-                plan_rx,
-                shared,
-                start,
-                first_window(0, timing.window),
-            );
-            controller::stepper::SoftSteps::new(queue, engine, b.step_pins)
-        };
+        let latch: &'static Latch = cx.local.latch_slot;
+        let (config, stored, store) = store::load(&b.flash);
+        if b.watchdog_reset {
+            latch.trip(AlarmCode::Watchdog);
+        }
         let (cmd_tx, cmd_rx) = cx.local.cmds.split();
         let (mut sp_tx, sp_rx) = cx.local.setpoints.split();
-        let Some(plan) = new_plan(cx.local.plan) else {
+        let Some(plan) = new_plan(cx.local.plan, &config) else {
             defmt::error!("bad planner settings");
             fuzzy_firmware::fail()
         };
-        let mut background = match Background::new(plan, Point3Mm::ORIGIN) {
+        let mut background = match Background::new(plan, Point3Mm::ORIGIN, latch, config) {
             Ok(bg) => bg,
             Err(e) => {
                 defmt::error!("cannot start: {}", e);
@@ -153,12 +130,33 @@ mod app {
         };
         // Setpoints ready before the first tick.
         background.fill(&mut sp_tx);
-        let mut link = DeviceLink::new();
+        let mut link = DeviceLink::new(latch, config, stored);
         let hello = link.hello(background.planning().motion());
         link.tx.send(&hello, 0);
-        measure::set_tick_period_us(1_000_000 / TICK_HZ);
-        measure::start_tick_timer(&mut core.SYST, TICK_HZ);
-        defmt::info!("fuzzy feed controller: {}", hello);
+        link.tx.send(&DeviceMsg::Stored(stored), 0);
+        b.outputs
+            .start_pwm(config.get(Key::SpindlePwmHz).clamp(1, 100_000) as u32);
+        b.watchdog.start();
+        measure::set_tick_period_us(config.tick_us());
+        let (pins, timer) = (b.step_pins, b.step_timer);
+        // Right before SysTick starts (the engine's windows follow it).
+        #[allow(unused_variables)]
+        let (steps, step_isr) =
+            match step_output::start(&config, cx.local.plans, cx.local.step_shared, pins, timer) {
+                Ok(s) => s,
+                Err(e) => {
+                    defmt::error!("bad step settings: {}", e);
+                    fuzzy_firmware::fail()
+                }
+            };
+        measure::start_tick_timer(&mut core.SYST, config.tick_hz());
+        defmt::info!(
+            "fuzzy feed controller on {=str}: {}; settings {}; crystal {=bool}",
+            fuzzy_firmware::boards::MAP.name,
+            hello,
+            stored,
+            b.crystal
+        );
         (
             Shared {
                 link,
@@ -169,19 +167,23 @@ mod app {
                 sp_rx,
                 steps,
                 #[cfg(not(feature = "qemu"))]
-                engine,
-                #[cfg(not(feature = "qemu"))]
-                step_timer: b.step_timer,
-                #[cfg(not(feature = "qemu"))]
-                step_pins: b.step_pins,
-                #[cfg(not(feature = "qemu"))]
-                pending,
+                step_isr,
+                guard: Guard::new(),
+                inputs: b.inputs,
+                enable: b.enable,
+                latch,
                 rx: b.rx,
                 reader: FrameReader::new(),
                 cmd_tx,
                 cmd_rx,
                 sp_tx,
                 background,
+                machine: Machine {
+                    outputs: b.outputs,
+                    flash: b.flash,
+                    store,
+                    watchdog: b.watchdog,
+                },
             },
             init::Monotonics(),
         )
@@ -189,43 +191,30 @@ mod app {
 
     /// The planner, built in its static slot (6.5 KB: one temporary on
     /// init's stack, not two).
-    fn new_plan(slot: &'static mut MaybeUninit<Plan>) -> Option<&'static mut Plan> {
-        Some(slot.write(Plan::new(MOTION_CONFIG).ok()?))
+    fn new_plan(slot: &'static mut MaybeUninit<Plan>, c: &Config) -> Option<&'static mut Plan> {
+        Some(slot.write(Plan::new(c.motion_config()).ok()?))
     }
 
-    /// The step edges due now, then the next batch: pins first, so that
-    /// every edge follows its compare match by the same few cycles; the
-    /// engine is told the counter read after the write (never earlier
-    /// than the edges), which keeps every minimum. A batch already due
-    /// when the compare is set is written at once (late by the engine's
-    /// own time); a stale interrupt (nothing due yet) only clears the flag.
+    /// The step timer's compare match (or a stop's kick).
     #[cfg(not(feature = "qemu"))]
-    #[task(binds = TIM2, priority = 4, local = [engine, step_timer, step_pins, pending])]
+    #[task(binds = TIM2, priority = 4, local = [step_isr])]
     fn step(cx: step::Context) {
-        let l = cx.local;
-        if !l.step_timer.reached(l.pending.at) {
-            l.step_timer.clear();
-            return;
-        }
-        l.step_pins.write(l.pending.edges);
-        loop {
-            l.engine.done(l.step_timer.now());
-            *l.pending = l.engine.due();
-            if !l.step_timer.arm(l.pending.at) {
-                return;
-            }
-            l.step_pins.write(l.pending.edges);
-        }
+        cx.local.step_isr.on_interrupt();
     }
 
-    /// The next setpoint to the step output, every timer period.
-    #[task(binds = SysTick, priority = 3, local = [sp_rx, steps], shared = [exec])]
+    /// Inputs and stops, then the next setpoint to the step output, every
+    /// timer period.
+    #[task(binds = SysTick, priority = 3, local = [sp_rx, steps, guard, inputs, enable, latch], shared = [exec])]
     fn tick(mut cx: tick::Context) {
         let t0 = measure::cycles_in_period();
         let local = cx.local;
+        let latch: &Latch = local.latch;
+        let raw = local.inputs.read();
         // The step timer alone is above it: no actual lock.
         cx.shared.exec.lock(|e| {
-            e.tick(local.sp_rx, local.steps);
+            let on = local.guard.tick(raw, latch, e, local.sp_rx, local.steps);
+            local.enable.set(on, latch.guard_config().enable_invert);
+            local.guard.check_lag(latch, &e.steps);
             // From entry to here (the wake-up latency is not the tick's
             // cost, and under QEMU's -icount it depends on host timing).
             e.worst_cycles = e.worst_cycles.max(measure::cycles_in_period_since(t0));
@@ -255,17 +244,24 @@ mod app {
         }
     }
 
-    /// Background: transmit, one pass, sleep when there is nothing to do
-    /// (a tick frees a ring slot, a byte brings a command).
-    #[idle(local = [cmd_rx, sp_tx, background, probe: StackProbe = StackProbe::new()], shared = [link, port])]
+    /// Background: watchdog, transmit, one pass, sleep when there is
+    /// nothing to do (a tick frees a ring slot, a byte brings a command).
+    #[idle(local = [cmd_rx, sp_tx, background, machine, probe: StackProbe = StackProbe::new()], shared = [link, port])]
     fn idle(cx: idle::Context) -> ! {
         let (local, mut sh) = (cx.local, cx.shared);
         loop {
+            local.machine.watchdog.feed();
             let pending = (&mut sh.link, &mut sh.port).lock(|l, p| l.tx.drain(|b| p.try_write(b)));
             let stack = local.probe.step(256);
-            let busy = local
-                .background
-                .step(&mut sh.link, local.cmd_rx, local.sp_tx, stack, log);
+            let busy = local.background.step(
+                &mut sh.link,
+                local.cmd_rx,
+                local.sp_tx,
+                local.machine,
+                measure::uptime_us(),
+                stack,
+                log,
+            );
             if !busy && pending == 0 && !local.cmd_rx.ready() && !local.sp_tx.ready() {
                 rtic::export::wfi();
             }
@@ -275,6 +271,7 @@ mod app {
     fn log(n: Notice) {
         match n {
             Notice::PathScheduled => defmt::info!("path scheduled"),
+            Notice::Alarm(code) => defmt::warn!("alarm: {}", code),
             other => defmt::error!("{}", other),
         }
     }

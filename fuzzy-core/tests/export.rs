@@ -115,10 +115,15 @@ fn fcl_names_every_term_and_rule() {
     write_fcl(&mut text, &SYSTEM).unwrap();
     assert!(text.contains("FUNCTION_BLOCK lin2021_feed"));
     assert!(text.contains("METHOD : COG;"));
-    assert!(text.contains("ACCU : MAX;"));
+    // Laid out as fuzzylite 6 reads it: ACCU in DEFUZZIFY, lower-case rule
+    // keywords, no comment outside a declaration.
+    let defuzzify = &text[text.find("DEFUZZIFY").unwrap()..text.find("END_DEFUZZIFY").unwrap()];
+    assert!(defuzzify.contains("ACCU : MAX;"));
+    assert_eq!(text.matches("ACCU").count(), 1);
+    assert!(!text.lines().any(|l| l.starts_with("(*")));
     assert_eq!(text.matches("    RULE ").count(), 30);
-    assert!(text.contains("RULE 1 : IF curvature IS ZO AND variation IS ZO THEN feed IS TF;"));
-    assert!(text.contains("RULE 25 : IF curvature IS ZO AND variation IS VH THEN feed IS VLF;"));
+    assert!(text.contains("RULE 1 : if curvature is ZO and variation is ZO then feed is TF;"));
+    assert!(text.contains("RULE 25 : if curvature is ZO and variation is VH then feed is VLF;"));
     for t in SYSTEM
         .inputs
         .iter()

@@ -4,7 +4,8 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use host_sim::config::SimConfig;
-use host_sim::machine::{fanuc::FanucMode, MachineConfig};
+use host_sim::experiments::dat_phuc2024::fanuc::FanucMode;
+use host_sim::machine::MachineConfig;
 use host_sim::methods::Method;
 use host_sim::shapes::Shape;
 use host_sim::simulate::{self, Prepared};

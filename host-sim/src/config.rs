@@ -77,6 +77,8 @@ impl SimConfig {
         );
         self.machine.validate(self.ts_s())?;
         self.planner.validate(self.ts_s())?;
+        self.methods.grbl_like.validate()?;
+        self.methods.blend.validate()?;
         let f = &self.methods.fuzzy;
         anyhow::ensure!(
             f.f_min_mm_per_min.is_finite() && f.f_min_mm_per_min >= 0.0,
@@ -130,7 +132,7 @@ impl SimConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::machine::fanuc::FanucMode;
+    use crate::experiments::dat_phuc2024::fanuc::FanucMode;
 
     #[test]
     fn defaults_round_trip_through_toml() {

@@ -147,12 +147,43 @@ impl PathIndex {
 
     /// Distance from `p` to the polyline (mm) and the nearest point of it.
     pub fn nearest(&self, p: [f64; 3]) -> (f64, [f64; 3]) {
+        let (best, i) = self.nearest_segment(p);
+        let t = segment_t(p, self.a[i], self.ab[i], self.len2[i]);
+        let q = [
+            self.a[i][0] + t * self.ab[i][0],
+            self.a[i][1] + t * self.ab[i][1],
+            self.a[i][2] + t * self.ab[i][2],
+        ];
+        (best, q)
+    }
+
+    /// Distance from `p` to the polyline (mm) and the index of the nearest
+    /// segment (segment `i` runs from point `i` to point `i + 1`).
+    pub fn nearest_segment(&self, p: [f64; 3]) -> (f64, usize) {
         let mut best_seg = 0usize;
         let c = [
             (p[0] / self.cell_mm).floor() as i64,
             (p[1] / self.cell_mm).floor() as i64,
         ];
         let mut best = f64::INFINITY;
+        // p's own cell first: every segment passing within half a cell of p
+        // (in x-y) has a sample within 3/4 of a cell of it, so it is
+        // registered in p's cell (segments are registered in their
+        // samples' cells and those cells' neighbours). A result within half
+        // a cell is therefore final.
+        if let Some(list) = self.cells.get(&(c[0], c[1])) {
+            for &i in list {
+                let i = i as usize;
+                let d = segment_distance(p, self.a[i], self.ab[i], self.len2[i]);
+                if d < best {
+                    best = d;
+                    best_seg = i;
+                }
+            }
+            if best <= 0.5 * self.cell_mm {
+                return (best, best_seg);
+            }
+        }
         // Rings of cells at Chebyshev distance r in x-y. A segment's nearest
         // point to p lies in a cell where the segment is registered; if that
         // cell is in ring r, the point is at least (r − 1)·cell away (x-y
@@ -194,14 +225,7 @@ impl PathIndex {
                 }
             }
         }
-        let i = best_seg;
-        let t = segment_t(p, self.a[i], self.ab[i], self.len2[i]);
-        let q = [
-            self.a[i][0] + t * self.ab[i][0],
-            self.a[i][1] + t * self.ab[i][1],
-            self.a[i][2] + t * self.ab[i][2],
-        ];
-        (best, q)
+        (best, best_seg)
     }
 }
 

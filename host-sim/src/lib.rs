@@ -7,26 +7,29 @@
 //! ```text
 //! toolpath ─► method (constant | chord-error | fuzzy | fuzzy-no-filter) ─► feed per block
 //!          ─► interpolation every Ts ─► machine ─► actual motion ─► metrics, plots
+//!          └► (fuzzy-planner | planner | grbl-like | blend) ─► positions every Ts
+//!             ─► the machine's after-interpolation stage ─► actual motion
 //! ```
+//!
+//! Every subcommand is a module with `Args` (clap) and `run`: the papers'
+//! in [`experiments`] (one folder per paper: model, command, report), the
+//! others in [`cli`].
 
-pub mod cho;
-pub mod compare;
+pub mod cam_corpus;
+pub mod cli;
 pub mod config;
 pub mod contour_error;
-pub mod corner_comp;
+pub mod experiments;
 pub mod gcode;
 pub mod inputs;
 pub mod interpolation;
 pub mod machine;
 pub mod methods;
 pub mod metrics;
-pub mod nagata;
-pub mod njiri;
 pub mod nurbs;
 pub mod path_csv;
 pub mod planner;
 pub mod plots;
-pub mod report;
 pub mod shapes;
 pub mod simulate;
 pub mod toolpath;

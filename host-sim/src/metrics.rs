@@ -113,18 +113,59 @@ pub struct Metrics {
     pub peak_axis_acc_mm_per_s2: [f64; 3],
     /// Peak jerk of X, Y, Z, mm/s³.
     pub peak_axis_jerk_mm_per_s3: [f64; 3],
+    /// Largest peak axis acceleration over that axis's limit A
+    /// (`[planner] axis_accel_max_mm_per_s2`).
+    pub axis_acc_ratio: f64,
+    /// Largest peak axis jerk over the jerk limit J
+    /// (`[planner] jerk_max_mm_per_s3`).
+    pub axis_jerk_ratio: f64,
+    /// Time the tool runs at 99 % or more of the programmed feed (the F
+    /// word capped by F_max, of the segment nearest the tool), s.
+    pub time_at_feed_s: f64,
 }
 
-/// Contour error of every actual sample, mm.
-pub fn contour_errors(index: &PathIndex, motion: &Motion) -> Vec<f64> {
-    motion.actual.iter().map(|p| index.distance(*p)).collect()
+/// What [`Metrics::measure`] compares the motion with.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Reference<'a> {
+    /// Programmed feed of each segment (point `i` to `i + 1`), mm/min;
+    /// empty: `time_at_feed_s` is 0.
+    pub programmed_mm_per_min: &'a [f64],
+    /// Axis acceleration limits A, mm/s² (0: no ratio).
+    pub accel_max_mm_per_s2: [f64; 3],
+    /// Jerk limit J, mm/s³ (0: no ratio).
+    pub jerk_max_mm_per_s3: f64,
+}
+
+/// Contour error of every actual sample, mm, and the nearest segment.
+pub fn contour_errors(index: &PathIndex, motion: &Motion) -> (Vec<f64>, Vec<usize>) {
+    motion
+        .actual
+        .iter()
+        .map(|p| index.nearest_segment(*p))
+        .unzip()
 }
 
 impl Metrics {
-    /// Measure `motion` against the commanded path `index`.
-    pub fn measure(index: &PathIndex, motion: &Motion) -> (Self, Kinematics, Vec<f64>) {
-        let err = contour_errors(index, motion);
+    /// Measure `motion` against the commanded path `index` and `reference`.
+    pub fn measure(
+        index: &PathIndex,
+        motion: &Motion,
+        reference: &Reference<'_>,
+    ) -> (Self, Kinematics, Vec<f64>) {
+        let (err, seg) = contour_errors(index, motion);
         let kin = Kinematics::of(&motion.actual, motion.ts_s);
+        let mut at_feed = 0usize;
+        if !reference.programmed_mm_per_min.is_empty() {
+            for (k, v) in kin.speed_mm_per_s.iter().enumerate() {
+                let i = seg[k + 1].min(reference.programmed_mm_per_min.len() - 1);
+                if v * 60.0 >= 0.99 * reference.programmed_mm_per_min[i] {
+                    at_feed += 1;
+                }
+            }
+        }
+        let acc = peak3(&kin.axis_acc_mm_per_s2);
+        let jerk = peak3(&kin.axis_jerk_mm_per_s3);
+        let ratio = |x: f64, lim: f64| if lim > 0.0 { x / lim } else { 0.0 };
         let (mut wsum, mut esum, mut emin) = (0.0, 0.0, f64::INFINITY);
         for (k, d) in kin.speed_mm_per_s.iter().enumerate() {
             let ds = d * motion.ts_s;
@@ -148,8 +189,15 @@ impl Metrics {
             peak_feed_mm_per_min: peak(&kin.speed_mm_per_s) * 60.0,
             peak_tangential_acc_mm_per_s2: peak(&kin.tangential_acc_mm_per_s2),
             peak_tangential_jerk_mm_per_s3: peak(&kin.tangential_jerk_mm_per_s3),
-            peak_axis_acc_mm_per_s2: peak3(&kin.axis_acc_mm_per_s2),
-            peak_axis_jerk_mm_per_s3: peak3(&kin.axis_jerk_mm_per_s3),
+            peak_axis_acc_mm_per_s2: acc,
+            peak_axis_jerk_mm_per_s3: jerk,
+            axis_acc_ratio: (0..3)
+                .map(|i| ratio(acc[i], reference.accel_max_mm_per_s2[i]))
+                .fold(0.0, f64::max),
+            axis_jerk_ratio: (0..3)
+                .map(|i| ratio(jerk[i], reference.jerk_max_mm_per_s3))
+                .fold(0.0, f64::max),
+            time_at_feed_s: at_feed as f64 * motion.ts_s,
         };
         (m, kin, err)
     }
@@ -190,7 +238,14 @@ mod tests {
             commanded: vec![],
             actual: (0..=100).map(|k| [k as f64 * 0.1, 0.01, 0.0]).collect(),
         };
-        let (m, _, _) = Metrics::measure(&PathIndex::new(&path), &motion);
+        let reference = Reference {
+            programmed_mm_per_min: &[600.0],
+            accel_max_mm_per_s2: [2000.0; 3],
+            jerk_max_mm_per_s3: 50_000.0,
+        };
+        let (m, _, _) = Metrics::measure(&PathIndex::new(&path), &motion, &reference);
+        assert!((m.time_at_feed_s - 1.0).abs() < 1e-12);
+        assert!(m.axis_acc_ratio < 1e-6, "{}", m.axis_acc_ratio);
         assert!((m.cycle_time_s - 1.0).abs() < 1e-12);
         assert!((m.contour_error_max_mm - 0.01).abs() < 1e-12);
         assert!((m.contour_error_mean_mm - 0.01).abs() < 1e-12);

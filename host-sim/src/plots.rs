@@ -114,6 +114,18 @@ fn colour(m: Method) -> RGBColor {
         Method::Fuzzy => RGBColor(214, 39, 40),
         Method::FuzzyNoFilter => RGBColor(255, 127, 14),
         Method::FuzzyPlanner => RGBColor(44, 160, 44),
+        Method::Planner => RGBColor(148, 103, 189),
+        Method::GrblLike => RGBColor(140, 86, 75),
+        Method::Blend => RGBColor(23, 190, 207),
+    }
+}
+
+/// A colour per method, a second shade for a tighter tolerance.
+pub fn variant_colour(m: Method, tolerance_mm: Option<f64>) -> RGBColor {
+    match (m, tolerance_mm) {
+        (Method::GrblLike, Some(t)) if t < 0.005 => RGBColor(227, 119, 194),
+        (Method::Blend, Some(t)) if t < 0.005 => RGBColor(188, 189, 34),
+        _ => colour(m),
     }
 }
 
@@ -280,7 +292,7 @@ pub fn write_figure(stem: &Path, fig: &Figure, formats: Formats) -> Result<()> {
 }
 
 fn label(r: &RunResult) -> String {
-    r.method.name().to_string()
+    r.label()
 }
 
 /// Feed, acceleration and jerk against time for `runs` (same path, same
@@ -288,7 +300,13 @@ fn label(r: &RunResult) -> String {
 pub fn kinematics_figure(path_name: &str, f_max: f64, runs: &[&RunResult]) -> Figure {
     let series = |f: &dyn Fn(&RunResult) -> Vec<(f64, f64)>| -> Vec<Series> {
         runs.iter()
-            .map(|r| (label(r), colour(r.method), thin(&f(r))))
+            .map(|r| {
+                (
+                    label(r),
+                    variant_colour(r.method, r.tolerance_mm),
+                    thin(&f(r)),
+                )
+            })
             .collect()
     };
     let t = |k: usize, ts: f64| k as f64 * ts;
@@ -469,7 +487,11 @@ pub fn all(dir: &Path, prepared: &Prepared, runs: &[&RunResult], formats: Format
             &kinematics_figure(name, *f, &same),
             formats,
         )?;
-        for r in &same {
+        // The baselines are on the kinematics and Pareto figures.
+        for r in same
+            .iter()
+            .filter(|r| !matches!(r.method, Method::Planner | Method::GrblLike | Method::Blend))
+        {
             write_figure(
                 &dir.join(format!("{name}_error_{}_{f}", r.method.name())),
                 &error_figure(prepared, r),
@@ -481,11 +503,104 @@ pub fn all(dir: &Path, prepared: &Prepared, runs: &[&RunResult], formats: Format
         .iter()
         .find(|r| matches!(r.method, Method::Fuzzy | Method::FuzzyNoFilter))
         .unwrap_or(&runs[0]);
-    write_figure(
-        &dir.join(format!("{name}_curvature")),
-        &curvature_figure(name, fuzzy),
-        formats,
-    )?;
+    // grbl-like and blend compute no curvature.
+    if !fuzzy.schedule.curvature_per_mm.is_empty() {
+        write_figure(
+            &dir.join(format!("{name}_curvature")),
+            &curvature_figure(name, fuzzy),
+            formats,
+        )?;
+    }
+    Ok(())
+}
+
+/// One curve of a Pareto figure: label, colour, (cycle time s, max contour
+/// error mm) per maximum feed.
+pub type ParetoCurve = (String, RGBColor, Vec<(f64, f64)>);
+
+fn pareto_draw<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: &str,
+    curves: &[ParetoCurve],
+) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE).map_err(|e| anyhow!("plot: {e}"))?;
+    let pts = curves.iter().flat_map(|c| c.2.iter()).filter(|p| p.1 > 0.0);
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for &(x, y) in pts {
+        x0 = x0.min(x);
+        x1 = x1.max(x);
+        y0 = y0.min(y);
+        y1 = y1.max(y);
+    }
+    if x0 > x1 {
+        bail!("plot: no points");
+    }
+    let (x0, x1) = (x0 * 0.95, x1 * 1.05 + 1e-9);
+    let (y0, y1) = (y0 / 1.3, y1 * 1.3 + 1e-12);
+    let mut chart = ChartBuilder::on(root)
+        .caption(title, ("sans-serif", 18))
+        .margin(10)
+        .x_label_area_size(36)
+        .y_label_area_size(70)
+        .build_cartesian_2d(x0..x1, (y0..y1).log_scale())
+        .map_err(|e| anyhow!("plot: {e}"))?;
+    chart
+        .configure_mesh()
+        .x_desc("cycle time (s)")
+        .y_desc("max contour error (mm)")
+        .y_label_formatter(&|v| format!("{v:.0e}"))
+        .label_style(("sans-serif", 13))
+        .draw()
+        .map_err(|e| anyhow!("plot: {e}"))?;
+    for (name, c, pts) in curves {
+        let c = *c;
+        let pts: Vec<(f64, f64)> = pts.iter().copied().filter(|p| p.1 > 0.0).collect();
+        chart
+            .draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(2)))
+            .map_err(|e| anyhow!("plot: {e}"))?
+            .label(name.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2)));
+        chart
+            .draw_series(pts.iter().map(|p| Circle::new(*p, 3, c.filled())))
+            .map_err(|e| anyhow!("plot: {e}"))?;
+    }
+    chart
+        .configure_series_labels()
+        .border_style(BLACK)
+        .background_style(WHITE.mix(0.8))
+        .label_font(("sans-serif", 13))
+        .draw()
+        .map_err(|e| anyhow!("plot: {e}"))?;
+    Ok(())
+}
+
+/// Max contour error (log scale) against cycle time, one curve per method
+/// over the maximum feeds of the sweep: left of and below is better.
+pub fn write_pareto(
+    stem: &Path,
+    title: &str,
+    curves: &[ParetoCurve],
+    formats: Formats,
+) -> Result<()> {
+    ensure_font()?;
+    let size = (1000, 700);
+    for ext in formats.extensions() {
+        let path = stem.with_extension(ext);
+        if *ext == "png" {
+            let root = BitMapBackend::new(&path, size).into_drawing_area();
+            pareto_draw(&root, title, curves)?;
+            root.present()
+                .map_err(|e| anyhow!("writing {}: {e}", path.display()))?;
+        } else {
+            let root = SVGBackend::new(&path, size).into_drawing_area();
+            pareto_draw(&root, title, curves)?;
+            root.present()
+                .map_err(|e| anyhow!("writing {}: {e}", path.display()))?;
+        }
+    }
     Ok(())
 }
 

@@ -6,8 +6,8 @@ use anyhow::Result;
 use crate::config::SimConfig;
 use crate::contour_error::PathIndex;
 use crate::machine::Motion;
-use crate::methods::{self, Method, Schedule};
-use crate::metrics::{Kinematics, Metrics};
+use crate::methods::{self, blend, grbl_like, AxisLimits, Method, Schedule};
+use crate::metrics::{Kinematics, Metrics, Reference};
 use crate::planner;
 use crate::toolpath::Toolpath;
 
@@ -34,6 +34,8 @@ impl Prepared {
 pub struct RunResult {
     /// The method.
     pub method: Method,
+    /// Its tolerance (Grbl's junction deviation, LinuxCNC's P), mm.
+    pub tolerance_mm: Option<f64>,
     /// Its maximum feed, mm/min.
     pub f_max_mm_per_min: f64,
     /// The commanded feeds.
@@ -49,8 +51,9 @@ pub struct RunResult {
 }
 
 /// Simulate a given schedule on the configured machine and measure it.
-/// With [`Method::FuzzyPlanner`] the feeds are the planner's upper bounds
-/// and the machine follows the planner's positions
+/// With a tick-stream method ([`Method::is_tick_stream`]) the feeds are the
+/// upper bounds of its planner and the machine follows the planner's
+/// positions through its after-interpolation stage only
 /// ([`crate::planner::machine`]).
 pub fn run_schedule(
     prepared: &Prepared,
@@ -59,22 +62,41 @@ pub fn run_schedule(
     schedule: Schedule,
     config: &SimConfig,
 ) -> Result<RunResult> {
-    let motion = if method == Method::FuzzyPlanner {
-        let path = &prepared.path;
-        let points =
-            planner::motion_points(path, &schedule.feeds_mm_per_min, &schedule.curvature_per_mm)?;
-        let planned = planner::plan(&points, &path.lines, &config.planner)?;
-        planner::machine::follow(&config.machine, planned.commanded(), config.ts_s())
-    } else {
-        config.machine.simulate(
-            &prepared.path.points,
-            &schedule.feeds_mm_per_min,
-            config.ts_s(),
-        )
+    let path = &prepared.path;
+    let ts = config.ts_s();
+    let limits = AxisLimits::of(&config.planner);
+    let feeds = &schedule.feeds_mm_per_min;
+    let motion = match method {
+        Method::FuzzyPlanner | Method::Planner => {
+            let points = planner::motion_points(path, feeds, &schedule.curvature_per_mm)?;
+            let planned = planner::plan(&points, &path.lines, &config.planner)?;
+            planner::machine::follow(&config.machine, planned.commanded(), ts)
+        }
+        Method::GrblLike => {
+            let s = &config.methods.grbl_like;
+            let c = grbl_like::commanded(&path.points, feeds, s, &limits, ts)?;
+            planner::machine::follow(&config.machine, c, ts)
+        }
+        Method::Blend => {
+            let s = &config.methods.blend;
+            let c = blend::commanded(&path.points, feeds, s, &limits, ts)?;
+            planner::machine::follow(&config.machine, c, ts)
+        }
+        Method::Constant | Method::ChordError | Method::Fuzzy | Method::FuzzyNoFilter => {
+            config.machine.simulate(&path.points, feeds, ts)
+        }
     };
-    let (metrics, kinematics, contour_error_mm) = Metrics::measure(&prepared.index, &motion);
+    let programmed = programmed_feeds(path, f_max_mm_per_min);
+    let reference = Reference {
+        programmed_mm_per_min: &programmed,
+        accel_max_mm_per_s2: limits.accel_mm_per_s2,
+        jerk_max_mm_per_s3: config.planner.jerk_max_mm_per_s3 as f64,
+    };
+    let (metrics, kinematics, contour_error_mm) =
+        Metrics::measure(&prepared.index, &motion, &reference);
     Ok(RunResult {
         method,
+        tolerance_mm: method.tolerance_mm(&config.methods),
         f_max_mm_per_min,
         schedule,
         motion,
@@ -82,6 +104,35 @@ pub fn run_schedule(
         kinematics,
         contour_error_mm,
     })
+}
+
+impl RunResult {
+    /// The method's name with its tolerance, e.g. `grbl-like 0.002`.
+    pub fn label(&self) -> String {
+        label(self.method, self.tolerance_mm)
+    }
+}
+
+/// `method` with its tolerance, e.g. `grbl-like 0.002`, `blend 0.01`.
+pub fn label(method: Method, tolerance_mm: Option<f64>) -> String {
+    match tolerance_mm {
+        Some(t) => format!("{} {t}", method.name()),
+        None => method.name().to_string(),
+    }
+}
+
+/// The programmed feed of each segment (point `i` to `i + 1`): its F word
+/// capped by `f_max`, mm/min.
+pub fn programmed_feeds(path: &Toolpath, f_max_mm_per_min: f64) -> Vec<f64> {
+    (1..path.len().max(2))
+        .map(|i| {
+            path.feed_caps
+                .get(i)
+                .copied()
+                .flatten()
+                .map_or(f_max_mm_per_min, |c| c.min(f_max_mm_per_min))
+        })
+        .collect()
 }
 
 /// Schedule with `method` at `f_max`, simulate, measure.

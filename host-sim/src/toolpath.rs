@@ -9,6 +9,38 @@ use anyhow::{bail, Result};
 use fuzzy_core::scheduler::PathPoint;
 use fuzzy_core::units::{FeedMmPerMin, Point3Mm};
 
+/// A spindle direction, or off.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SpindleDir {
+    /// Off (M5).
+    Off,
+    /// Clockwise (M3).
+    Cw,
+    /// Counter-clockwise (M4).
+    Ccw,
+}
+
+/// A machine command of a program (spindle, coolant), in order with the
+/// motion: it takes effect once the tool has reached a point of the path.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MachineEvent {
+    /// Spindle on in a direction at a speed, or off (M3 M4 M5, or an S word
+    /// while it runs).
+    Spindle {
+        /// Direction, or off.
+        dir: SpindleDir,
+        /// Speed, rpm.
+        rpm: f64,
+    },
+    /// Coolant: flood (M8), mist (M7), both off (M9).
+    Coolant {
+        /// Flood on.
+        flood: bool,
+        /// Mist on.
+        mist: bool,
+    },
+}
+
 /// A polyline with per-block feed caps and source lines.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Toolpath {
@@ -21,6 +53,9 @@ pub struct Toolpath {
     pub feed_caps: Vec<Option<f64>>,
     /// Source line of each point (1-based; 0 where there is none).
     pub lines: Vec<u32>,
+    /// Machine commands in program order: `(i, line, event)` takes effect
+    /// once the tool has reached point `i` (before the move to `i + 1`).
+    pub events: Vec<(usize, u32, MachineEvent)>,
 }
 
 impl Toolpath {
@@ -34,6 +69,18 @@ impl Toolpath {
         feed_caps: Vec<Option<f64>>,
         lines: Vec<u32>,
     ) -> Result<Self> {
+        Self::with_events(name, points, feed_caps, lines, Vec::new())
+    }
+
+    /// [`Toolpath::new`] with machine commands, each after a point given
+    /// by its index in `points` (renumbered as points are dropped).
+    pub fn with_events(
+        name: impl Into<String>,
+        points: Vec<[f64; 3]>,
+        feed_caps: Vec<Option<f64>>,
+        lines: Vec<u32>,
+        events: Vec<(usize, u32, MachineEvent)>,
+    ) -> Result<Self> {
         if points.len() != feed_caps.len() || points.len() != lines.len() {
             bail!("toolpath: points, feed caps and lines differ in length");
         }
@@ -42,7 +89,11 @@ impl Toolpath {
             points: Vec::with_capacity(points.len()),
             feed_caps: Vec::with_capacity(points.len()),
             lines: Vec::with_capacity(points.len()),
+            events: Vec::with_capacity(events.len()),
         };
+        // Where each input point ends up: the index of the kept point it is
+        // (or merged into).
+        let mut kept_at = Vec::with_capacity(points.len());
         let mut last: Option<Point3Mm> = None;
         for ((p, cap), line) in points.into_iter().zip(feed_caps).zip(lines) {
             if p.iter().any(|c| !c.is_finite()) {
@@ -62,12 +113,21 @@ impl Toolpath {
                 }
             }
             if last == Some(fixed) {
+                kept_at.push(t.points.len().saturating_sub(1));
                 continue;
             }
             last = Some(fixed);
+            kept_at.push(t.points.len());
             t.points.push(p);
             t.feed_caps.push(cap);
             t.lines.push(line);
+        }
+        for (i, line, e) in events {
+            let at = kept_at
+                .get(i)
+                .copied()
+                .unwrap_or(t.points.len().saturating_sub(1));
+            t.events.push((at, line, e));
         }
         if t.points.len() < 2 {
             bail!("toolpath {:?} has fewer than two distinct points", t.name);

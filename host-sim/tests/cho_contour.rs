@@ -1,9 +1,9 @@
 //! Cho et al.'s closed loop on the X-Y servo model: fuzzy-core's online
 //! contour error against host-sim's exact one, and the feed law's behaviour.
 
-use host_sim::cho::{self, ChoSettings, Contour};
 use host_sim::contour_error::brute_force_distance;
-use host_sim::machine::servo_xy::ServoXyConfig;
+use host_sim::experiments::cho::feed_control::{self as cho, ChoSettings, Contour};
+use host_sim::experiments::cho::servo_xy::ServoXyConfig;
 
 /// Online (variable window) and exact (whole path) contour error agree on
 /// the circle except where the tool overshoots the end point (the window

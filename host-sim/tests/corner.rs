@@ -1,7 +1,7 @@
 //! Dat & Phuc's corner compensation on the FANUC-like machine.
 
-use host_sim::corner_comp::{self, CornerSettings};
-use host_sim::machine::fanuc::{FanucConfig, FanucMode};
+use host_sim::experiments::dat_phuc2024::corner_comp::{self, CornerSettings};
+use host_sim::experiments::dat_phuc2024::fanuc::{FanucConfig, FanucMode};
 use host_sim::machine::MachineConfig;
 
 fn fanuc(mode: FanucMode) -> MachineConfig {

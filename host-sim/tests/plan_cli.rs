@@ -173,7 +173,7 @@ fn compare_runs_the_planner_method_with_its_claims() {
     let table = std::fs::read_to_string(d.join("table.csv")).unwrap();
     assert!(table
         .lines()
-        .any(|l| l.starts_with("trident,fuzzy-planner,3000,")));
+        .any(|l| l.starts_with("trident,fuzzy-planner,,3000,")));
     let claims = std::fs::read_to_string(d.join("claims.csv")).unwrap();
     assert!(claims.starts_with("path,method,"));
     assert!(claims
@@ -182,6 +182,10 @@ fn compare_runs_the_planner_method_with_its_claims() {
     assert!(d
         .join("plots/trident_error_fuzzy-planner_3000.svg")
         .exists());
+    // The Pareto sweep: one curve per method, five feeds each.
+    let pareto = std::fs::read_to_string(d.join("pareto.csv")).unwrap();
+    assert_eq!(pareto.lines().count(), 1 + 2 * 5);
+    assert!(d.join("plots/pareto_trident.svg").exists());
     // The servo's limits are below the planner's defaults: said, not hidden.
     let o = bin()
         .args([

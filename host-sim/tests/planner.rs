@@ -5,7 +5,7 @@
 
 use fuzzy_core::planner::Motion;
 use host_sim::config::SimConfig;
-use host_sim::machine::fanuc::{FanucConfig, FanucMode};
+use host_sim::experiments::dat_phuc2024::fanuc::{FanucConfig, FanucMode};
 use host_sim::machine::MachineConfig;
 use host_sim::methods::{self, Method};
 use host_sim::planner::{self, figures};

@@ -19,7 +19,10 @@ use std::thread;
 use std::time::{Duration, Instant};
 
 use crate::batch::{on_grid, BatchPoint, PointBatch};
-use crate::{DeviceMsg, ErrorCode, FrameReader, HostMsg, Status, FRAME_MAX};
+use crate::{
+    AlarmCode, DeviceMsg, ErrorCode, FrameReader, HostMsg, MachineCmd, MachineStatus, Status,
+    FRAME_MAX,
+};
 
 /// The controller's hello: the settings it runs with.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -56,6 +59,12 @@ pub struct Client {
     aborted: Option<DeviceMsg>,
     /// Send runs of points on the grid as `Points` batches.
     batching: bool,
+    /// The last alarm reported, with where the tool stopped.
+    alarm: Option<(AlarmCode, [i64; 3])>,
+    /// The last machine status received.
+    machine: Option<MachineStatus>,
+    /// The last setting reported (`DeviceMsg::Setting`).
+    setting: Option<(u16, i64)>,
 }
 
 impl Default for Client {
@@ -71,6 +80,9 @@ impl Default for Client {
             resends: 0,
             aborted: None,
             batching: true,
+            alarm: None,
+            machine: None,
+            setting: None,
         }
     }
 }
@@ -124,6 +136,12 @@ impl Client {
     /// Queue the end of the path.
     pub fn end_path(&mut self) -> u32 {
         self.queue(|seq| HostMsg::EndPath { seq })
+    }
+
+    /// Queue a machine command (spindle, coolant): it takes effect when
+    /// the motion reaches it, after the points queued before it.
+    pub fn machine(&mut self, cmd: MachineCmd) -> u32 {
+        self.queue(|seq| HostMsg::Machine { seq, cmd })
     }
 
     /// Whether runs of points whose coordinates lie on the wire's grid
@@ -218,8 +236,44 @@ impl Client {
                 }
             }
             DeviceMsg::Aborted { .. } => self.aborted = Some(*m),
-            DeviceMsg::Scheduled { .. } | DeviceMsg::Planned { .. } => {}
+            DeviceMsg::Alarm {
+                code,
+                pos_mm,
+                next_seq,
+            } => {
+                // Everything queued was dropped on the controller's side:
+                // drop it here too and continue the numbering there.
+                self.outbox.clear();
+                self.base = next_seq;
+                self.send_next = next_seq;
+                self.acked = next_seq;
+                self.alarm = Some((code, pos_mm));
+            }
+            DeviceMsg::Machine(ms) => self.machine = Some(ms),
+            DeviceMsg::Setting { id, value } => self.setting = Some((id, value)),
+            DeviceMsg::Scheduled { .. }
+            | DeviceMsg::Planned { .. }
+            | DeviceMsg::Applied { .. }
+            | DeviceMsg::Homed { .. }
+            | DeviceMsg::Stored(_) => {}
         }
+    }
+
+    /// The last alarm the controller reported (`DeviceMsg::Alarm`): its
+    /// cause and where the tool stopped. Path commands queued before it
+    /// were dropped.
+    pub fn alarm(&self) -> Option<(AlarmCode, [i64; 3])> {
+        self.alarm
+    }
+
+    /// The last machine status received.
+    pub fn machine_status(&self) -> Option<MachineStatus> {
+        self.machine
+    }
+
+    /// The last setting reported.
+    pub fn last_setting(&self) -> Option<(u16, i64)> {
+        self.setting
     }
 
     /// Abort the path (the message to send now): everything queued or sent
@@ -469,6 +523,78 @@ impl Connection {
             }
         }
         Err(LinkError::Timeout)
+    }
+
+    /// Send `msg` and wait (each try 500 ms, `tries` times) for the reply
+    /// `pick` takes, or a refusal; every other message to `seen`.
+    fn ask<T>(
+        &mut self,
+        msg: &HostMsg,
+        tries: u32,
+        mut pick: impl FnMut(&DeviceMsg) -> Option<T>,
+        mut seen: impl FnMut(&DeviceMsg),
+    ) -> Result<Result<T, ErrorCode>, LinkError> {
+        for _ in 0..tries {
+            self.send(msg)?;
+            let deadline = Instant::now() + Duration::from_millis(500);
+            while let Some(left) = deadline.checked_duration_since(Instant::now()) {
+                let Some(m) = self.recv(left.min(Duration::from_millis(50)))? else {
+                    continue;
+                };
+                seen(&m);
+                if let Some(t) = pick(&m) {
+                    return Ok(Ok(t));
+                }
+                if let DeviceMsg::Error { code, .. } = m {
+                    if !matches!(code, ErrorCode::OutOfSequence | ErrorCode::NoCredit) {
+                        return Ok(Err(code));
+                    }
+                }
+            }
+        }
+        Err(LinkError::Timeout)
+    }
+
+    /// Read setting `id`: its value, or why it was refused.
+    pub fn get_setting(
+        &mut self,
+        id: u16,
+        seen: impl FnMut(&DeviceMsg),
+    ) -> Result<Result<i64, ErrorCode>, LinkError> {
+        let pick = |m: &DeviceMsg| match *m {
+            DeviceMsg::Setting { id: i, value } if i == id => Some(value),
+            _ => None,
+        };
+        self.ask(&HostMsg::GetSetting { id }, 20, pick, seen)
+    }
+
+    /// Write setting `id` (at rest only): the value now in force, or why
+    /// it was refused (then nothing changed).
+    pub fn set_setting(
+        &mut self,
+        id: u16,
+        value: i64,
+        seen: impl FnMut(&DeviceMsg),
+    ) -> Result<Result<i64, ErrorCode>, LinkError> {
+        let pick = |m: &DeviceMsg| match *m {
+            DeviceMsg::Setting { id: i, value } if i == id => Some(value),
+            _ => None,
+        };
+        // A resend of the same write is harmless: it writes the same value
+        // (and is refused the same way).
+        self.ask(&HostMsg::SetSetting { id, value }, 20, pick, seen)
+    }
+
+    /// The machine status (alarm, homing, spindle, coolant, inputs, store).
+    pub fn machine(&mut self, seen: impl FnMut(&DeviceMsg)) -> Result<MachineStatus, LinkError> {
+        let pick = |m: &DeviceMsg| match *m {
+            DeviceMsg::Machine(s) => Some(s),
+            _ => None,
+        };
+        match self.ask(&HostMsg::MachineQuery, 20, pick, seen)? {
+            Ok(s) => Ok(s),
+            Err(_) => Err(LinkError::Timeout),
+        }
     }
 
     /// Stream until every queued command is acknowledged, resending what

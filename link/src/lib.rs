@@ -24,7 +24,8 @@
 //!
 //! # Sequencing and credit
 //! Commands that move through the controller's queue in order ([`HostMsg::StartPath`],
-//! [`HostMsg::Point`], [`HostMsg::EndPath`]) carry a sequence number `seq`,
+//! [`HostMsg::Point`], [`HostMsg::Points`], [`HostMsg::EndPath`],
+//! [`HostMsg::Machine`]) carry a sequence number `seq`,
 //! 0, 1, 2, … from boot. The controller accepts only `seq == next expected`;
 //! a repeat of an accepted `seq` is acknowledged again (so resending is
 //! harmless), anything else is refused with [`ErrorCode::OutOfSequence`]. Its
@@ -48,7 +49,7 @@ use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
 /// The protocol's version (in every frame's tag byte).
-pub const PROTOCOL_VERSION: u8 = 2;
+pub const PROTOCOL_VERSION: u8 = 3;
 
 /// A message of the link: which way it goes (its tag).
 pub trait Message: Serialize + DeserializeOwned {
@@ -80,6 +81,17 @@ pub const CRC_LEN: usize = 4;
 pub const DELIMITER: u8 = 0;
 
 const CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
+
+/// The link's CRC-32 (ISO-HDLC, as Ethernet and zlib) of `words`, each
+/// little endian, for other records that want the same check (the
+/// controller's stored settings).
+pub fn crc32_words(words: &[u32]) -> u32 {
+    let mut d = CRC32.digest();
+    for w in words {
+        d.update(&w.to_le_bytes());
+    }
+    d.finalize()
+}
 
 /// Fixed-point raw bits: I32F32 (value × 2^32), for positions in mm and
 /// feeds in mm/min. Exact on both sides of the link.
@@ -175,6 +187,170 @@ pub enum HostMsg {
         /// Planner inputs reported.
         planner: bool,
     },
+    /// Emergency stop (immediate): the controller enters its alarm state
+    /// ([`AlarmCode::EStopLink`]); the step output stops at the next tick,
+    /// with no deceleration (unlike [`HostMsg::Hold`] and
+    /// [`HostMsg::Abort`], which stop on the path under control), the
+    /// drivers are disabled and everything queued is dropped.
+    EStop,
+    /// Leave the alarm state (Grbl's `$X`), if no e-stop input is active
+    /// ([`ErrorCode::InputActive`]). Path commands are refused
+    /// ([`ErrorCode::Alarm`]) until then.
+    Unlock,
+    /// Run the homing cycle (Grbl's `$H`) on these axes (bit 0 X, 1 Y, 2
+    /// Z; 0: every axis of the configured cycle), at rest with nothing
+    /// queued; [`DeviceMsg::Homed`] reports its end.
+    Home {
+        /// Axes, a bit mask.
+        axes: u8,
+    },
+    /// A machine command carried in the path stream (queued, sequenced
+    /// like a point): it takes effect when the motion reaches it
+    /// ([`DeviceMsg::Applied`]).
+    Machine {
+        /// Sequence number.
+        seq: u32,
+        /// What.
+        cmd: MachineCmd,
+    },
+    /// Read a setting (answered with [`DeviceMsg::Setting`]).
+    GetSetting {
+        /// Its id (Grbl's `$N` numbering where one exists).
+        id: u16,
+    },
+    /// Write a setting (at rest only, [`ErrorCode::Busy`] otherwise):
+    /// checked ([`ErrorCode::OutOfRange`], [`ErrorCode::UnknownSetting`]:
+    /// nothing changed), stored, answered with [`DeviceMsg::Setting`].
+    SetSetting {
+        /// Its id.
+        id: u16,
+        /// The value, in the setting's unit.
+        value: i64,
+    },
+    /// Ask for a [`DeviceMsg::Machine`] (answered at once).
+    MachineQuery,
+}
+
+/// A machine command of the path stream ([`HostMsg::Machine`]).
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum MachineCmd {
+    /// Spindle on (M3 clockwise, M4 counter-clockwise) at a speed, or off
+    /// (M5).
+    Spindle {
+        /// Direction, or off.
+        dir: SpindleDir,
+        /// Speed (S), rpm.
+        speed_rpm: u32,
+    },
+    /// Coolant: flood (M8), mist (M7); both off is M9.
+    Coolant {
+        /// Flood coolant on.
+        flood: bool,
+        /// Mist coolant on.
+        mist: bool,
+    },
+}
+
+/// The spindle's direction, or off.
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SpindleDir {
+    /// Off (M5).
+    #[default]
+    Off,
+    /// Clockwise (M3).
+    Cw,
+    /// Counter-clockwise (M4).
+    Ccw,
+}
+
+/// Why the controller entered its alarm state (`DeviceMsg::Alarm`).
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum AlarmCode {
+    /// The e-stop input became active.
+    EStopInput,
+    /// An e-stop message ([`HostMsg::EStop`]).
+    EStopLink,
+    /// A limit switch became active (hard limits on).
+    HardLimit {
+        /// Axis, 0 X, 1 Y, 2 Z.
+        axis: u8,
+        /// The maximum-end switch (else the minimum end).
+        max: bool,
+    },
+    /// The motion would have left the travel (soft limits on).
+    SoftLimit,
+    /// The firmware was restarted by its watchdog.
+    Watchdog,
+    /// The step output fell behind the commanded position.
+    StepLag,
+    /// The link went silent while a path was open, and the tool came to a
+    /// controlled stop for want of path.
+    LinkLoss,
+    /// Homing: the switch was not found within the search distance.
+    HomingNoSwitch {
+        /// Axis.
+        axis: u8,
+    },
+    /// Homing: the switch was still active after the pull-off.
+    HomingPullOff {
+        /// Axis.
+        axis: u8,
+    },
+    /// Homing was interrupted (an abort).
+    HomingAborted,
+}
+
+/// What became of the stored settings (`DeviceMsg::Stored`).
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum StoreResult {
+    /// Read from flash at start-up.
+    #[default]
+    Loaded,
+    /// Nothing stored yet: the defaults.
+    Empty,
+    /// The stored record was corrupt: the last good record, or the
+    /// defaults if there is none.
+    Corrupt,
+    /// The stored record is of another format version: the defaults.
+    OldVersion,
+    /// Written to flash.
+    Saved,
+    /// Writing failed (it did not read back): in force until a reset.
+    WriteFailed,
+}
+
+/// The machine's state beyond the motion, answer to
+/// [`HostMsg::MachineQuery`].
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MachineStatus {
+    /// The alarm in force, if any.
+    pub alarm: Option<AlarmCode>,
+    /// Alarms since boot.
+    pub alarms: u32,
+    /// A homing cycle is running.
+    pub homing: bool,
+    /// Axes homed since boot (bit 0 X, 1 Y, 2 Z).
+    pub homed: u8,
+    /// Inputs active (debounced): bit 0 e-stop, then X min, X max, Y min,
+    /// Y max, Z min, Z max.
+    pub inputs: u8,
+    /// Spindle direction, or off.
+    pub spindle: SpindleDir,
+    /// Spindle speed, rpm.
+    pub speed_rpm: u32,
+    /// Flood coolant on.
+    pub flood: bool,
+    /// Mist coolant on.
+    pub mist: bool,
+    /// The settings store: how it was read at start-up or the last write.
+    pub store: StoreResult,
+    /// A setting changed that takes effect only at the next reset.
+    pub restart_needed: bool,
 }
 
 /// Smallest feed override, percent.
@@ -196,6 +372,10 @@ pub enum Motion {
     Held,
     /// Out of path while the path is open: stopping or stopped, waiting.
     Starved,
+    /// In the alarm state (stopped, drivers off; `HostMsg::Unlock`).
+    Alarm,
+    /// Running the homing cycle.
+    Homing,
 }
 
 /// The controller's state, answer to [`HostMsg::StatusQuery`].
@@ -234,7 +414,8 @@ pub struct Status {
     pub worst_tick_cycles: u32,
     /// Stack high-water mark, bytes (painted stack).
     pub stack_used_bytes: u32,
-    /// Ticks since boot.
+    /// Ticks the executor ran since boot (ticks stopped by an alarm, a
+    /// homing halt or a refill of the ring are not counted).
     pub ticks: u32,
     /// Ticks the current path has been moving (speed > 0), from its first
     /// move.
@@ -273,6 +454,13 @@ pub enum PlanEvent {
     Override(u16),
     /// An abort: the planner stops as for a hold, then drops its buffer.
     Abort,
+    /// The planner was rebuilt at rest at this position with the settings
+    /// in force (an alarm, a homing cycle or a change of settings):
+    /// whatever it held is gone.
+    Reset {
+        /// Where it rests, mm, I32F32 bits per axis.
+        pos_mm: [I32F32Bits; 3],
+    },
 }
 
 /// Why a frame or command was refused.
@@ -304,6 +492,18 @@ pub enum ErrorCode {
     /// A message that goes the other way, or of another protocol version
     /// (the tag byte, [`Message::TAG`]).
     Misdirected,
+    /// Refused in the alarm state (path commands, homing; `HostMsg::Unlock`).
+    Alarm,
+    /// A point outside the machine's travel (soft limits on).
+    OutOfTravel,
+    /// Motion before homing, with homing required by the settings.
+    NotHomed,
+    /// Needs the machine at rest with nothing queued.
+    Busy,
+    /// No setting with that id.
+    UnknownSetting,
+    /// `HostMsg::Unlock` while the e-stop input is active.
+    InputActive,
 }
 
 /// Controller to host.
@@ -374,6 +574,47 @@ pub enum DeviceMsg {
         /// Where the tool stopped, mm, I32F32 bits per axis.
         pos_mm: [I32F32Bits; 3],
     },
+    /// The controller entered its alarm state: the step output stopped,
+    /// the drivers are disabled, everything queued is dropped.
+    Alarm {
+        /// Why.
+        code: AlarmCode,
+        /// Where the tool stopped, mm, I32F32 bits per axis.
+        pos_mm: [I32F32Bits; 3],
+        /// The sequence number the next path command must carry.
+        next_seq: u32,
+    },
+    /// A setting's value (answer to `GetSetting`/`SetSetting`).
+    Setting {
+        /// Its id.
+        id: u16,
+        /// Its value, in the setting's unit.
+        value: i64,
+    },
+    /// The machine's state (answer to `HostMsg::MachineQuery`).
+    Machine(MachineStatus),
+    /// A machine command of the path took effect.
+    Applied {
+        /// Its sequence number.
+        seq: u32,
+        /// What.
+        cmd: MachineCmd,
+        /// The index, in the path that ended at it, of the last point
+        /// reached (the tool is at rest there).
+        point: u32,
+        /// Planner ticks generated before.
+        tick: u32,
+    },
+    /// A homing cycle completed: these axes are homed, the tool rests at
+    /// `pos_mm` (machine coordinates).
+    Homed {
+        /// Axes homed, a bit mask.
+        axes: u8,
+        /// Where the tool rests, mm, I32F32 bits per axis.
+        pos_mm: [I32F32Bits; 3],
+    },
+    /// The settings store: read at start-up, or written.
+    Stored(StoreResult),
 }
 
 /// Why encoding or decoding failed.
@@ -634,6 +875,91 @@ mod tests {
             tick: 0,
             event: PlanEvent::Abort,
         });
+    }
+
+    #[test]
+    fn the_machine_messages_round_trip_and_fit() {
+        for m in [
+            HostMsg::EStop,
+            HostMsg::Unlock,
+            HostMsg::Home { axes: u8::MAX },
+            HostMsg::Machine {
+                seq: u32::MAX,
+                cmd: MachineCmd::Spindle {
+                    dir: SpindleDir::Ccw,
+                    speed_rpm: u32::MAX,
+                },
+            },
+            HostMsg::Machine {
+                seq: 0,
+                cmd: MachineCmd::Coolant {
+                    flood: true,
+                    mist: false,
+                },
+            },
+            HostMsg::GetSetting { id: u16::MAX },
+            HostMsg::SetSetting {
+                id: u16::MAX,
+                value: i64::MIN,
+            },
+            HostMsg::MachineQuery,
+        ] {
+            roundtrip(m);
+        }
+        let worst_alarm = AlarmCode::HardLimit {
+            axis: u8::MAX,
+            max: true,
+        };
+        for m in [
+            DeviceMsg::Alarm {
+                code: worst_alarm,
+                pos_mm: [i64::MIN; 3],
+                next_seq: u32::MAX,
+            },
+            DeviceMsg::Setting {
+                id: u16::MAX,
+                value: i64::MIN,
+            },
+            DeviceMsg::Machine(MachineStatus {
+                alarm: Some(worst_alarm),
+                alarms: u32::MAX,
+                homing: true,
+                homed: u8::MAX,
+                inputs: u8::MAX,
+                spindle: SpindleDir::Ccw,
+                speed_rpm: u32::MAX,
+                flood: true,
+                mist: true,
+                store: StoreResult::WriteFailed,
+                restart_needed: true,
+            }),
+            DeviceMsg::Applied {
+                seq: u32::MAX,
+                cmd: MachineCmd::Spindle {
+                    dir: SpindleDir::Cw,
+                    speed_rpm: u32::MAX,
+                },
+                point: u32::MAX,
+                tick: u32::MAX,
+            },
+            DeviceMsg::Homed {
+                axes: u8::MAX,
+                pos_mm: [i64::MIN; 3],
+            },
+            DeviceMsg::Stored(StoreResult::Corrupt),
+            DeviceMsg::Planned {
+                tick: u32::MAX,
+                event: PlanEvent::Reset {
+                    pos_mm: [i64::MIN; 3],
+                },
+            },
+        ] {
+            roundtrip(m);
+        }
+        roundtrip(DeviceMsg::Status(Status {
+            motion: Motion::Homing,
+            ..Status::default()
+        }));
     }
 
     /// A frame with a valid CRC around `payload` (tag included).

@@ -9,9 +9,10 @@ use std::sync::OnceLock;
 use std::thread;
 use std::time::{Duration, Instant};
 
+use controller::config::{Config, COUNT, SETTINGS};
 use fuzzy_core::scheduler::{PathPoint, SchedulerConfig};
 use link::client::{Client, Connection, Hello, LinkError};
-use link::{DeviceMsg, ErrorCode, HostMsg, PlanEvent, Status};
+use link::{DeviceMsg, ErrorCode, HostMsg, MachineCmd, MachineStatus, PlanEvent, Status};
 
 /// The repository root.
 pub fn repo_root() -> PathBuf {
@@ -176,6 +177,13 @@ pub struct Records {
     pub statuses: Vec<Status>,
     /// Abort reports (`DeviceMsg::Aborted`).
     pub aborted: Vec<DeviceMsg>,
+    /// Alarm reports (`DeviceMsg::Alarm`).
+    pub alarms: Vec<DeviceMsg>,
+    /// Machine commands that took effect (`DeviceMsg::Applied`).
+    pub applied: Vec<DeviceMsg>,
+    /// The other machine reports: settings, machine status, homing,
+    /// store.
+    pub machine: Vec<DeviceMsg>,
 }
 
 impl Records {
@@ -201,6 +209,12 @@ impl Records {
             DeviceMsg::Status(s) => self.statuses.push(s),
             DeviceMsg::Error { code, expected_seq } => self.errors.push((code, expected_seq)),
             DeviceMsg::Aborted { .. } => self.aborted.push(*m),
+            DeviceMsg::Alarm { .. } => self.alarms.push(*m),
+            DeviceMsg::Applied { .. } => self.applied.push(*m),
+            DeviceMsg::Setting { .. }
+            | DeviceMsg::Machine(_)
+            | DeviceMsg::Homed { .. }
+            | DeviceMsg::Stored(_) => self.machine.push(*m),
             DeviceMsg::Ack { .. } | DeviceMsg::Hello { .. } => {}
         }
     }
@@ -379,6 +393,57 @@ impl Firmware {
     /// Queue the end of the path.
     pub fn end_path(&mut self) -> u32 {
         self.conn.client_mut().end_path()
+    }
+
+    /// Queue a machine command (spindle, coolant); its sequence number.
+    pub fn machine(&mut self, cmd: MachineCmd) -> u32 {
+        self.conn.client_mut().machine(cmd)
+    }
+
+    /// Read a setting: its value, or why it was refused.
+    pub fn get_setting(&mut self, id: u16) -> Result<i64, ErrorCode> {
+        let rec = &mut self.rec;
+        match self.conn.get_setting(id, |m| rec.record(m)) {
+            Ok(r) => r,
+            Err(e) => self.fail(e),
+        }
+    }
+
+    /// Write a setting: the value in force, or why it was refused.
+    pub fn set_setting(&mut self, id: u16, value: i64) -> Result<i64, ErrorCode> {
+        let rec = &mut self.rec;
+        match self.conn.set_setting(id, value, |m| rec.record(m)) {
+            Ok(r) => r,
+            Err(e) => self.fail(e),
+        }
+    }
+
+    /// Every setting as the firmware reports it: what the host replays
+    /// its motion with.
+    pub fn settings(&mut self) -> Config {
+        let mut values = [0i64; COUNT];
+        for (v, s) in values.iter_mut().zip(SETTINGS.iter()) {
+            *v = self
+                .get_setting(s.id)
+                .unwrap_or_else(|e| panic!("setting ${}: {e:?}", s.id));
+        }
+        Config::from_values(values).expect("the firmware's settings are valid")
+    }
+
+    /// The machine status.
+    pub fn machine_status(&mut self) -> MachineStatus {
+        let rec = &mut self.rec;
+        match self.conn.machine(|m| rec.record(m)) {
+            Ok(s) => s,
+            Err(e) => self.fail(e),
+        }
+    }
+
+    /// Drop what the client still holds and continue the numbering where
+    /// the firmware is (after an alarm, or refusals).
+    pub fn resync(&mut self) {
+        let s = self.status();
+        self.conn.client_mut().resync(&s);
     }
 
     /// Send queued commands as the credit allows; returns how many went.

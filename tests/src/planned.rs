@@ -128,6 +128,10 @@ pub fn replay(
                     PlanEvent::Abort => {
                         p.abort();
                     }
+                    PlanEvent::Reset { pos_mm } => {
+                        let pos = Point3Mm::from_bits(pos_mm[0], pos_mm[1], pos_mm[2]);
+                        p.reset(config, pos).expect("the firmware's settings");
+                    }
                 }
             }
         }
@@ -159,6 +163,22 @@ impl Replayed {
                 s.pos_mm,
                 want.to_bits(),
                 "{name}: status {k}: position at executed tick {executed}"
+            );
+        }
+        statuses.len()
+    }
+
+    /// The firmware's checksums against the host's only (after an alarm or
+    /// a homing cycle the executed ticks no longer map onto the generated
+    /// ones: setpoints were dropped unexecuted). Returns how many statuses
+    /// were compared.
+    pub fn check_checksums(&self, name: &str, statuses: &[Status]) -> usize {
+        for (k, s) in statuses.iter().enumerate() {
+            let g = s.generated_ticks as usize;
+            assert!(g < self.checksums.len(), "{name}: replay too short");
+            assert_eq!(
+                s.positions_checksum, self.checksums[g],
+                "{name}: status {k}: the firmware's setpoints differ from the host's within the first {g} ticks"
             );
         }
         statuses.len()

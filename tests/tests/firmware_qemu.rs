@@ -125,13 +125,15 @@ impl Sent {
     }
 }
 
-/// The firmware's hello matches the settings the host replays with (the
-/// controller crate's, built with the same environment).
-fn check_hello(fw: &Firmware) {
-    let (h, c) = (fw.hello(), MOTION_CONFIG);
+/// The planner settings the host replays with: the firmware's, read over
+/// the link (`GetSetting`), checked against its hello.
+fn replay_config(fw: &mut Firmware) -> fuzzy_core::planner::MotionConfig {
+    let c = fw.settings().motion_config();
+    let h = fw.hello();
     assert_eq!(h.tick_hz, 1_000_000 / c.tick_us, "tick rate");
     assert_eq!(h.planner_points as usize, PLANNER_POINTS);
     assert_eq!(h.feed_max_mm_per_min as f64, c.feed_max.to_f64());
+    c
 }
 
 /// Every scheduled feed equals the host's bit for bit; the host's replay of
@@ -144,7 +146,7 @@ fn verify(
     paths: &[Sent],
     from: usize,
 ) -> (planned::Replayed, Peaks) {
-    check_hello(fw);
+    let config = replay_config(fw);
     let mut points = std::collections::HashMap::new();
     for p in paths {
         points.extend(planned::schedule(p.config, &p.pts, &p.seqs));
@@ -170,14 +172,17 @@ fn verify(
         .map(|s| s.generated_ticks)
         .max()
         .unwrap_or(0);
-    let config = MOTION_CONFIG;
     let rep = planned::replay(config, &points, &fw.rec.plan_log, upto);
+    // The hello gives the settings at boot (the defaults in QEMU, whose
+    // flash keeps nothing).
     let hello_accel = fw.hello().accel_mm_per_s2 as f64;
-    assert!(
-        (rep.accel_mm_s2.ceil() - hello_accel).abs() < 1.0,
-        "{name}: acceleration limit {} vs hello {hello_accel}",
-        rep.accel_mm_s2,
-    );
+    if config == MOTION_CONFIG {
+        assert!(
+            (rep.accel_mm_s2.ceil() - hello_accel).abs() < 1.0,
+            "{name}: acceleration limit {} vs hello {hello_accel}",
+            rep.accel_mm_s2,
+        );
+    }
     let n = rep.check_statuses(name, &fw.rec.statuses);
     let p = planned::peaks(
         &rep.ticks[from.min(rep.ticks.len())..],
@@ -1020,4 +1025,312 @@ fn the_link_carries_dense_paths_at_real_wire_rates() {
     for l in lines {
         println!("{l}");
     }
+}
+
+/// The last `DeviceMsg::Alarm`: its code and where the tool stopped.
+fn last_alarm(fw: &Firmware) -> Option<(link::AlarmCode, [i64; 3])> {
+    fw.rec.alarms.iter().rev().find_map(|m| match *m {
+        link::DeviceMsg::Alarm { code, pos_mm, .. } => Some((code, pos_mm)),
+        _ => None,
+    })
+}
+
+/// An e-stop over the link at full feed (`HostMsg::EStop`): the firmware
+/// enters its alarm state at once (no deceleration: the position stops
+/// changing from one tick to the next), reports the alarm with where the
+/// tool stopped, refuses path commands, and no motion follows however long
+/// it waits; after `HostMsg::Unlock` a new path runs from the stop to its
+/// end. The planner's setpoints stay the host's bit for bit throughout
+/// (its rebuild at the stop is reported, `PlanEvent::Reset`), and within
+/// the limits up to the stop.
+#[test]
+fn a_link_e_stop_stops_the_motion_until_unlocked() {
+    if !qemu_available() {
+        return;
+    }
+    let pts = line(400, 0.5);
+    let mut fw = Firmware::start("estop");
+    let mut paths = vec![Sent::stream(&mut fw, config(), &pts)];
+    fw.end_path();
+    let cruise = fw.poll_until(Duration::from_millis(10), Duration::from_secs(120), |s| {
+        feed(s) >= F_MAX as f64 * 0.999
+    });
+    let before = *cruise.last().unwrap();
+    fw.send(&HostMsg::EStop);
+    let stopped = fw.poll_until(Duration::from_millis(5), Duration::from_secs(30), |s| {
+        s.motion == Motion::Alarm
+    });
+    let at_alarm = *stopped.last().unwrap();
+    // Wait for the report, then stand: nothing moves.
+    let deadline = std::time::Instant::now() + Duration::from_secs(10);
+    while last_alarm(&fw).is_none() {
+        assert!(std::time::Instant::now() < deadline, "no alarm report");
+        fw.pump(Duration::from_millis(20));
+    }
+    let (code, stop) = last_alarm(&fw).unwrap();
+    assert_eq!(code, link::AlarmCode::EStopLink);
+    let stop_x = stop[0] as f64 / 4294967296.0;
+    // At 50 mm/s the message reaches the tick within a few ms: no ramp.
+    assert!(
+        stop_x >= pos(&before)[0] && stop_x < pos(&before)[0] + 1.0,
+        "stopped at {stop_x} (e-stop sent at {})",
+        pos(&before)[0]
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    let still = fw.status();
+    assert_eq!(still.motion, Motion::Alarm);
+    assert_eq!(still.pos_mm, stop, "no motion in the alarm state");
+    assert_eq!(still.pos_mm, at_alarm.pos_mm);
+    assert_eq!(still.feed_mm_per_min, 0);
+    let m = fw.machine_status();
+    assert_eq!((m.alarm, m.alarms), (Some(link::AlarmCode::EStopLink), 1));
+    // Path commands are refused until the unlock.
+    let errors = fw.rec.errors.len();
+    fw.resync();
+    fw.start_path(&config());
+    fw.transmit();
+    std::thread::sleep(Duration::from_millis(100));
+    let still = fw.status();
+    assert!(
+        fw.rec.errors[errors..]
+            .iter()
+            .any(|e| e.0 == ErrorCode::Alarm),
+        "{:?}",
+        &fw.rec.errors[errors..]
+    );
+    assert_eq!(still.pos_mm, stop);
+    // Unlocked: the next path runs from the stop.
+    fw.resync();
+    fw.send(&HostMsg::Unlock);
+    fw.poll_until(Duration::from_millis(10), Duration::from_secs(10), |s| {
+        s.motion == Motion::Idle
+    });
+    let back = vec![PathPoint::at(Point3Mm::from_f64(-5.0, 0.0, 0.0).unwrap())];
+    paths.push(Sent::stream(&mut fw, config(), &back));
+    fw.end_path();
+    fw.flush(Duration::from_secs(60));
+    let goal = end_of(&back);
+    fw.poll_until(Duration::from_millis(20), Duration::from_secs(120), |s| {
+        s.motion == Motion::Idle && s.pos_mm == goal
+    });
+    // The replay: every checksum, the executed positions up to the stop,
+    // the limits up to the stop (the stop itself is an emergency stop).
+    let config = replay_config(&mut fw);
+    let mut points = std::collections::HashMap::new();
+    for p in &paths {
+        points.extend(planned::schedule(p.config, &p.pts, &p.seqs));
+    }
+    fw.status();
+    let upto = fw
+        .rec
+        .statuses
+        .iter()
+        .map(|s| s.generated_ticks)
+        .max()
+        .unwrap_or(0);
+    let rep = planned::replay(config, &points, &fw.rec.plan_log, upto);
+    let n = rep.check_checksums("estop", &fw.rec.statuses);
+    let moving: Vec<Status> = fw
+        .rec
+        .statuses
+        .iter()
+        .take_while(|s| s.motion != Motion::Alarm)
+        .copied()
+        .collect();
+    rep.check_statuses("estop", &moving);
+    let reset_at = fw
+        .rec
+        .plan_log
+        .iter()
+        .find_map(|e| match *e {
+            system_tests::firmware::PlanLog::Event {
+                tick,
+                event: link::PlanEvent::Reset { pos_mm },
+            } => Some((tick, pos_mm)),
+            _ => None,
+        })
+        .expect("the planner's rebuild reported");
+    assert_eq!(reset_at.1, stop, "rebuilt where the tool stopped");
+    // No ramp: the tool was at full feed at the setpoint it stopped on.
+    let at_stop = rep
+        .ticks
+        .iter()
+        .find(|t| t.pos.to_bits() == stop)
+        .expect("the stop is a setpoint");
+    let v = at_stop.speed as f64 / 4294967296.0 * 60_000.0;
+    assert!(v > 2990.0, "{v} mm/min at the stop");
+    let p = planned::peaks(&rep.ticks[..reset_at.0 as usize], &config, rep.accel_mm_s2);
+    planned::check_limits("estop", &p, &config);
+    assert_eq!(rep.ticks.last().unwrap().pos.to_bits(), goal);
+    println!(
+        "e-stop: sent at x = {:.3} mm at 3000 mm/min, stopped at {stop_x:.3} mm from {v:.0} mm/min (no ramp), no motion for 300 ms, path commands refused; unlocked, the next path ran to x = -5; {n} checksums bit-exact",
+        pos(&before)[0]
+    );
+}
+
+/// Settings over the link: read, written, refused out of range, unknown,
+/// or while moving; QEMU's flash is ROM, so the boot reports a corrupt
+/// store (the defaults) and a write reports `WriteFailed` (the value is in
+/// force until the reset). A lower acceleration written at rest shapes the
+/// next path, and the host's replay with the settings read back is still
+/// bit-exact.
+#[test]
+fn settings_are_read_and_written_over_the_link() {
+    if !qemu_available() {
+        return;
+    }
+    use link::{DeviceMsg, StoreResult};
+    let mut fw = Firmware::start("settings");
+    let deadline = std::time::Instant::now() + Duration::from_secs(5);
+    while !fw
+        .rec
+        .machine
+        .contains(&DeviceMsg::Stored(StoreResult::Corrupt))
+    {
+        assert!(std::time::Instant::now() < deadline, "{:?}", fw.rec.machine);
+        fw.pump(Duration::from_millis(20));
+    }
+    assert_eq!(fw.get_setting(120), Ok(2000));
+    assert_eq!(
+        fw.get_setting(100),
+        Ok(100_000),
+        "100 steps/mm, in thousandths"
+    );
+    assert_eq!(fw.get_setting(9999), Err(ErrorCode::UnknownSetting));
+    assert_eq!(fw.set_setting(120, 0), Err(ErrorCode::OutOfRange));
+    assert_eq!(fw.set_setting(204, 100), Err(ErrorCode::OutOfRange));
+    assert_eq!(fw.get_setting(120), Ok(2000), "nothing changed");
+    for a in [120, 121, 122] {
+        assert_eq!(fw.set_setting(a, 500), Ok(500));
+    }
+    let deadline = std::time::Instant::now() + Duration::from_secs(5);
+    while !fw
+        .rec
+        .machine
+        .contains(&DeviceMsg::Stored(StoreResult::WriteFailed))
+    {
+        assert!(std::time::Instant::now() < deadline, "{:?}", fw.rec.machine);
+        fw.pump(Duration::from_millis(20));
+    }
+    assert_eq!(fw.get_setting(121), Ok(500), "in force");
+    assert_eq!(fw.machine_status().store, StoreResult::WriteFailed);
+    let pts = line(120, 0.5);
+    let paths = [Sent::stream(&mut fw, config(), &pts)];
+    fw.end_path();
+    fw.poll_until(Duration::from_millis(10), Duration::from_secs(60), |s| {
+        s.motion == Motion::Running
+    });
+    assert_eq!(fw.set_setting(120, 600), Err(ErrorCode::Busy));
+    let goal = end_of(&pts);
+    fw.poll_until(Duration::from_millis(20), Duration::from_secs(120), |s| {
+        s.motion == Motion::Idle && s.pos_mm == goal
+    });
+    let (rep, p) = verify("settings", &mut fw, &paths, 0);
+    assert!(
+        (rep.accel_mm_s2 - 250.0).abs() < 0.5,
+        "half of 500 mm/s² tangential: {}",
+        rep.accel_mm_s2
+    );
+    assert!(p.tang_acc > 0.9, "the path used the new limit: {p:?}");
+    println!(
+        "settings: read, written (ROM: WriteFailed, in force), refused out of range, unknown and while moving; the path ran at 500 mm/s² per axis, replay bit-exact with the settings read back"
+    );
+}
+
+/// M3 S12000 between two paths and M5 after the second, carried in the
+/// path stream (`HostMsg::Machine`): each is reported (`DeviceMsg::Applied`)
+/// with the path index the tool had reached, at rest at the end of the path
+/// before it (Grbl's spindle sync), the second path only after the
+/// spin-up delay; the motion stays bit-exact.
+#[test]
+fn spindle_commands_are_reported_at_their_path_index() {
+    if !qemu_available() {
+        return;
+    }
+    use link::{DeviceMsg, MachineCmd, SpindleDir};
+    let mut fw = Firmware::start("spindle");
+    assert_eq!(fw.set_setting(207, 100), Ok(100));
+    let a = line(41, 0.5);
+    let b: Vec<PathPoint> = line(81, 0.5).into_iter().skip(41).collect();
+    // The machine command ends the first path: the points after it are a
+    // path of their own (same scheduler settings).
+    let sent_a = Sent::stream(&mut fw, config(), &a[1..]);
+    let m3 = fw.machine(MachineCmd::Spindle {
+        dir: SpindleDir::Cw,
+        speed_rpm: 12_000,
+    });
+    let sent_b = Sent {
+        config: config(),
+        pts: b.clone(),
+        seqs: fw.points(&b),
+    };
+    let m5 = fw.machine(MachineCmd::Spindle {
+        dir: SpindleDir::Off,
+        speed_rpm: 0,
+    });
+    fw.end_path();
+    fw.flush(Duration::from_secs(60));
+    let goal = end_of(&b);
+    fw.poll_until(Duration::from_millis(20), Duration::from_secs(120), |s| {
+        s.motion == Motion::Idle && s.pos_mm == goal
+    });
+    let deadline = std::time::Instant::now() + Duration::from_secs(5);
+    while fw.rec.applied.len() < 2 {
+        assert!(std::time::Instant::now() < deadline, "{:?}", fw.rec.applied);
+        fw.pump(Duration::from_millis(20));
+    }
+    let applied: Vec<(u32, MachineCmd, u32, u32)> = fw
+        .rec
+        .applied
+        .iter()
+        .filter_map(|m| match *m {
+            DeviceMsg::Applied {
+                seq,
+                cmd,
+                point,
+                tick,
+            } => Some((seq, cmd, point, tick)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(applied[0].0, m3);
+    assert_eq!(
+        applied[0].2, 40,
+        "M3 after the 40th point of the first path"
+    );
+    assert_eq!(applied[1].0, m5);
+    assert_eq!(applied[1].2, 40, "M5 after the 40th point of the second");
+    assert_eq!(
+        applied[0].1,
+        MachineCmd::Spindle {
+            dir: SpindleDir::Cw,
+            speed_rpm: 12_000
+        }
+    );
+    // The second path's first point entered the planner only after the
+    // spin-up delay (100 ticks at 1 kHz).
+    let first_b = fw
+        .rec
+        .scheduled
+        .iter()
+        .find(|r| r.seq == sent_b.seqs[0])
+        .copied()
+        .expect("scheduled");
+    assert!(
+        first_b.tick >= applied[0].3 + 100,
+        "second path at tick {} after M3 at {}",
+        first_b.tick,
+        applied[0].3
+    );
+    // Between the paths the tool rested at the first one's end.
+    let (rep, _) = verify("spindle", &mut fw, &[sent_a, sent_b], 0);
+    let t3 = applied[0].3 as usize;
+    assert_eq!(rep.ticks[t3 - 1].pos.to_bits(), end_of(&a));
+    assert_eq!(rep.ticks[t3 - 1].speed, 0);
+    let t5 = applied[1].3 as usize;
+    assert_eq!(rep.ticks[t5 - 1].pos.to_bits(), goal);
+    println!(
+        "spindle: M3 S12000 applied at path index 40 (tick {}), the second path after the 100 ms spin-up (tick {}), M5 at index 40 of the second (tick {})",
+        applied[0].3, first_b.tick, applied[1].3
+    );
 }

@@ -530,6 +530,8 @@ pub struct StepEngine<'a> {
     pending: Batch,
     pending_valid: bool,
     report: StepReport,
+    /// Stopped by the tick ([`Self::poll_halt`]): plans are dropped.
+    halted: bool,
 }
 
 impl<'a> StepEngine<'a> {
@@ -567,6 +569,49 @@ impl<'a> StepEngine<'a> {
             pending: Batch::default(),
             pending_valid: false,
             report: StepReport::default(),
+            halted: false,
+        }
+    }
+
+    /// Take a stop or a resume the tick asked for ([`StepShared`]); call
+    /// before writing a batch. A stop drops every crossing and step owed
+    /// and every plan queued, now: only the pulses already started end
+    /// (keeping their width), the axes stand where they are, and that
+    /// position is published; until the tick resumes, plans are dropped.
+    /// Returns whether the batch from [`Self::due`] changed (ask again).
+    pub fn poll_halt(&mut self) -> bool {
+        match self.shared.halt_request() {
+            Some(seq) if !self.halted => {
+                self.halted = true;
+                for a in self.axes.iter_mut() {
+                    a.owed = 0;
+                    a.win = [Crossings::default(); 2];
+                    a.nxt_consumed = 0;
+                    a.nxt_start = a.pos;
+                }
+                self.have_next = false;
+                self.drain();
+                self.pending_valid = false;
+                self.refresh_mask(0b111);
+                self.shared.ack_halt(seq, self.position());
+                true
+            }
+            None if self.halted => {
+                self.halted = false;
+                false
+            }
+            _ => false,
+        }
+    }
+
+    /// Whether the engine is stopped ([`Self::poll_halt`]).
+    pub fn halted(&self) -> bool {
+        self.halted
+    }
+
+    fn drain(&mut self) {
+        while self.plans.ready() {
+            self.plans.pop();
         }
     }
 
@@ -750,6 +795,10 @@ impl<'a> StepEngine<'a> {
     /// the axes whose next event may look at it (one crossing or none left
     /// in this window).
     fn pull(&mut self) -> bool {
+        if self.halted {
+            self.drain();
+            return false;
+        }
         if self.have_next || !self.plans.ready() {
             return false;
         }
@@ -780,7 +829,8 @@ impl<'a> StepEngine<'a> {
     /// (their events, already worked out with them as lookahead, stand),
     /// and the shortfall is measured.
     fn rollover(&mut self) {
-        let late = !self.have_next && !self.pull();
+        // Stopped, a window without a plan is no late tick.
+        let late = !self.have_next && !self.pull() && !self.halted;
         let moved =
             self.roll_axis::<0>(late) | self.roll_axis::<1>(late) | self.roll_axis::<2>(late);
         let lag = self.axes[0]

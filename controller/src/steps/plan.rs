@@ -156,14 +156,23 @@ impl Planner {
         Planner {
             spm,
             window: timing.window,
-            last: [0, 1, 2].map(|i| steps_q32(b[i], spm[i])),
+            last: [
+                steps_q32(b[0], spm[0]),
+                steps_q32(b[1], spm[1]),
+                steps_q32(b[2], spm[2]),
+            ],
         }
     }
 
     /// The commanded position of `pos`, whole steps per axis.
     pub fn whole_steps(&self, pos: Point3Mm) -> [i64; 3] {
         let b = pos.to_bits();
-        [0, 1, 2].map(|i| whole_steps(b[i], self.spm[i]))
+        let s = self.spm;
+        [
+            whole_steps(b[0], s[0]),
+            whole_steps(b[1], s[1]),
+            whole_steps(b[2], s[2]),
+        ]
     }
 
     /// Where the last plan ended, whole steps.
@@ -183,6 +192,27 @@ impl Planner {
         plan
     }
 
+    /// Start again from `steps` (whole steps per axis, where the engine
+    /// stopped): the next plan runs from there. Returns the position in mm
+    /// whose commanded position is exactly `steps` (the smallest, rounded
+    /// up to 2^-32 mm), which the next setpoints start from.
+    pub fn rebase(&mut self, steps: [i64; 3]) -> Point3Mm {
+        let mut bits = [0i64; 3];
+        for ((b, q), (s, spm)) in bits
+            .iter_mut()
+            .zip(self.last.iter_mut())
+            .zip(steps.into_iter().zip(self.spm))
+        {
+            let d = spm.0.max(1) as i128;
+            let n = (s as i128) << 48;
+            let up = n.div_euclid(d) + i128::from(n.rem_euclid(d) != 0);
+            *b = up.clamp(i64::MIN as i128, i64::MAX as i128) as i64;
+            *q = steps_q32(*b, spm);
+        }
+        let [x, y, z] = bits;
+        Point3Mm::from_bits(x, y, z)
+    }
+
     /// The plan of a tick that holds the position.
     pub fn hold(&self) -> TickPlan {
         let mut plan = TickPlan::default();
@@ -196,6 +226,27 @@ impl Planner {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn rebase_lands_on_the_step_exactly() {
+        let timing = crate::steps::StepConfig::new(StepsPerMm::from_int(80))
+            .timing(84_000_000, 1000)
+            .unwrap();
+        let spm = [80_000, 53_333, 3_200_000].map(StepsPerMm::from_milli);
+        let mut p = Planner::new(spm, &timing, Point3Mm::ORIGIN);
+        for steps in [
+            [0, 0, 0],
+            [1, -1, 7],
+            [12_345, -98_765, -3],
+            [-80, 53, 3200],
+        ] {
+            let mm = p.rebase(steps);
+            assert_eq!(p.position(), steps);
+            assert_eq!(p.whole_steps(mm), steps);
+            let plan = p.plan(mm);
+            assert!(plan.axes.iter().all(|a| a.steps == 0), "{plan:?}");
+        }
+    }
 
     /// Crossing times of a plan, counts after the window start, as the
     /// engine steps them.

@@ -2,7 +2,7 @@
 //! tick (lag) and ticks it had to run without a plan, as counters the
 //! engine (timer interrupt) writes and the tick reads without a lock.
 
-use core::sync::atomic::{AtomicU32, Ordering};
+use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 /// The engine's counters, shared between the step timer interrupt (writer)
 /// and the tick (reader).
@@ -13,6 +13,14 @@ pub struct StepShared {
     lag_now_steps: AtomicU32,
     late_windows: AtomicU32,
     filtered_pairs: AtomicU32,
+    /// The tick asks the engine to stop (an alarm, a homing switch).
+    halt: AtomicBool,
+    /// The stop asked for, numbered.
+    halt_seq: AtomicU32,
+    /// The stop the engine carried out, and where (whole steps, each axis
+    /// as low and high word).
+    halted_seq: AtomicU32,
+    halted_at: [AtomicU32; 6],
 }
 
 impl StepShared {
@@ -24,7 +32,56 @@ impl StepShared {
             lag_now_steps: AtomicU32::new(0),
             late_windows: AtomicU32::new(0),
             filtered_pairs: AtomicU32::new(0),
+            halt: AtomicBool::new(false),
+            halt_seq: AtomicU32::new(0),
+            halted_seq: AtomicU32::new(0),
+            halted_at: [const { AtomicU32::new(0) }; 6],
         }
+    }
+
+    /// (The tick.) Ask the engine to stop; returns the stop's number.
+    pub fn request_halt(&self) -> u32 {
+        let seq = self.halt_seq.load(Ordering::Relaxed).wrapping_add(1);
+        self.halt_seq.store(seq, Ordering::Relaxed);
+        self.halt.store(true, Ordering::Release);
+        seq
+    }
+
+    /// (The tick.) Let the engine take plans again.
+    pub fn release(&self) {
+        self.halt.store(false, Ordering::Release);
+    }
+
+    /// (The engine.) The stop asked for, if any.
+    pub fn halt_request(&self) -> Option<u32> {
+        self.halt
+            .load(Ordering::Acquire)
+            .then(|| self.halt_seq.load(Ordering::Relaxed))
+    }
+
+    /// (The engine.) Stop `seq` is carried out: the steps stopped at `pos`.
+    pub fn ack_halt(&self, seq: u32, pos: [i64; 3]) {
+        for (w, p) in self.halted_at.chunks(2).zip(pos) {
+            if let [lo, hi] = w {
+                lo.store(p as u32, Ordering::Relaxed);
+                hi.store((p >> 32) as u32, Ordering::Relaxed);
+            }
+        }
+        self.halted_seq.store(seq, Ordering::Release);
+    }
+
+    /// (The tick.) Where the steps stopped, once the engine has carried
+    /// out stop `seq`.
+    pub fn halted_at(&self, seq: u32) -> Option<[i64; 3]> {
+        if self.halted_seq.load(Ordering::Acquire) != seq {
+            return None;
+        }
+        let w = |i: usize| {
+            self.halted_at
+                .get(i)
+                .map_or(0, |a| a.load(Ordering::Relaxed)) as u64
+        };
+        Some([0, 1, 2].map(|a| (w(2 * a) | w(2 * a + 1) << 32) as i64))
     }
 
     /// Publish the engine's figures (one writer).

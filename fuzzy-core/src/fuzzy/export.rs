@@ -16,8 +16,13 @@
 //!   MATLAB also does not clamp inputs to their range (ours does): compare
 //!   inside the universe.
 //! - IEC 61131-7 defines only piecewise-linear terms and singletons. Gaussian
-//!   and generalised-bell terms are written in jFuzzyLogic's extension
-//!   syntax (`gauss mean stdev`, `gbell a b mean`). A shoulder whose foot
+//!   and generalised-bell terms are written in fuzzylite's extension syntax
+//!   (`Gaussian mean sigma`, `Bell center width slope`), and the FCL is laid
+//!   out as fuzzylite 6 reads it unchanged: no comment outside a
+//!   declaration, `ACCU` in the `DEFUZZIFY` block, rule keywords in lower
+//!   case (fuzzylite drops upper-case rules without a word). jFuzzyLogic
+//!   names the two curves `gauss`/`gbell` and wants `ACCU` in the
+//!   `RULEBLOCK`. A shoulder whose foot
 //!   equals its peak (`a = b`) is written from its peak, so left of it FCL
 //!   extends 1 where MATLAB gives 0; inside the universe they agree when
 //!   shoulders sit at the universe's ends (as in all our controllers).
@@ -166,11 +171,7 @@ fn write_fis_variable(w: &mut impl Write, v: &Variable<'_>) -> fmt::Result {
 
 /// Write `def` as an IEC 61131-7 Fuzzy Control Language function block.
 pub fn write_fcl<const NI: usize>(w: &mut impl Write, def: &SystemDef<'_, NI>) -> fmt::Result {
-    writeln!(
-        w,
-        "(* {}: exported by fuzzy-core; numbers are exact Q16.16 values *)",
-        def.name
-    )?;
+    // No comment line: fuzzylite refuses one outside a declaration.
     writeln!(w, "FUNCTION_BLOCK {}\n", def.name)?;
     writeln!(w, "VAR_INPUT")?;
     for v in def.inputs.iter() {
@@ -207,6 +208,11 @@ pub fn write_fcl<const NI: usize>(w: &mut impl Write, def: &SystemDef<'_, NI>) -
         Inference::Sugeno { .. } => "COGS",
     };
     writeln!(w, "    METHOD : {method};")?;
+    // Accumulation here, not in the RULEBLOCK: where fuzzylite reads it.
+    // A weighted average (Sugeno) accumulates nothing.
+    if let Inference::Mamdani { .. } = def.inference {
+        writeln!(w, "    ACCU : MAX;")?;
+    }
     writeln!(w, "    DEFAULT := {};", Exact(def.default_output))?;
     writeln!(
         w,
@@ -243,19 +249,19 @@ pub fn write_fcl<const NI: usize>(w: &mut impl Write, def: &SystemDef<'_, NI>) -
                 Implication::Product => "PROD",
             };
             writeln!(w, "    ACT : {act};")?;
-            writeln!(w, "    ACCU : MAX;")?;
         }
         Inference::Sugeno { .. } => {
             writeln!(w, "    ACT : PROD;")?;
-            writeln!(w, "    ACCU : SUM;")?;
         }
     }
+    // Rule keywords in lower case: fuzzylite's rule parser knows no other
+    // (it drops upper-case rules without a word).
     for (r, rule) in def.rules.iter().enumerate() {
-        write!(w, "    RULE {} : IF ", r + 1)?;
+        write!(w, "    RULE {} : if ", r + 1)?;
         let mut first = true;
         let conn = match rule.connective {
-            Connective::And => "AND",
-            Connective::Or => "OR",
+            Connective::And => "and",
+            Connective::Or => "or",
         };
         for (a, v) in rule.when.iter().zip(def.inputs.iter()) {
             let (neg, t) = match *a {
@@ -269,9 +275,9 @@ pub fn write_fcl<const NI: usize>(w: &mut impl Write, def: &SystemDef<'_, NI>) -
             first = false;
             let name = v.terms.get(t as usize).map_or("?", |t| t.name);
             if neg {
-                write!(w, "{} IS NOT {}", v.name, name)?;
+                write!(w, "{} is not {}", v.name, name)?;
             } else {
-                write!(w, "{} IS {}", v.name, name)?;
+                write!(w, "{} is {}", v.name, name)?;
             }
         }
         if first {
@@ -283,15 +289,15 @@ pub fn write_fcl<const NI: usize>(w: &mut impl Write, def: &SystemDef<'_, NI>) -
             ) {
                 write!(
                     w,
-                    "({} IS {} OR {} IS NOT {})",
+                    "({} is {} or {} is not {})",
                     v.name, t.name, v.name, t.name
                 )?;
             }
         }
         let then = out.terms.get(rule.then as usize).map_or("?", |t| t.name);
-        write!(w, " THEN {} IS {}", out.name, then)?;
+        write!(w, " then {} is {}", out.name, then)?;
         if rule.weight != Fx::ONE {
-            write!(w, " WITH {}", Exact(rule.weight))?;
+            write!(w, " with {}", Exact(rule.weight))?;
         }
         writeln!(w, ";")?;
     }
@@ -341,7 +347,7 @@ fn write_fcl_term(w: &mut impl Write, mf: &MembershipFn) -> fmt::Result {
             Ok(())
         }
         MembershipFn::Gaussian { sigma, center } => {
-            write!(w, "gauss {} {}", Exact(center), Exact(sigma))
+            write!(w, "Gaussian {} {}", Exact(center), Exact(sigma))
         }
         MembershipFn::Bell {
             width,
@@ -350,10 +356,10 @@ fn write_fcl_term(w: &mut impl Write, mf: &MembershipFn) -> fmt::Result {
         } => {
             write!(
                 w,
-                "gbell {} {} {}",
+                "Bell {} {} {}",
+                Exact(center),
                 Exact(width),
-                Exact(slope),
-                Exact(center)
+                Exact(slope)
             )
         }
         MembershipFn::Constant(v) => write!(w, "{}", Exact(v)),

@@ -147,6 +147,12 @@ fn feed_to_tick_q48(tick_us: u32) -> i64 {
 }
 
 impl MotionConfig {
+    /// Whether a planner accepts these settings (what `Motion::new`
+    /// checks, without building one).
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.compile().map(|_| ())
+    }
+
     /// Check and compile.
     pub(crate) fn compile(&self) -> Result<Limits, ConfigError> {
         if !(50..=100_000).contains(&self.tick_us) {
@@ -218,7 +224,8 @@ impl MotionConfig {
                 .min(corner.iter().copied().min().unwrap_or(0) / 2)
                 .max(1),
             feed_to_tick_q48: feed_to_tick_q48(t),
-            tick_to_feed_q16: ((60_000_000u64 << 16) / t as u64) as i64,
+            // (t ≥ 50, checked above.)
+            tick_to_feed_q16: (60_000_000u64 << 16).checked_div(t as u64).unwrap_or(0) as i64,
             tick_us: t,
         })
     }

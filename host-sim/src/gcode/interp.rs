@@ -1037,6 +1037,9 @@ impl<'s> Interp<'s> {
                 bail!("line {line}: spindle speed S{s} is negative");
             }
             self.rpm = s;
+            if !b.m.iter().any(|m| matches!(m, 3..=5)) {
+                self.out.s_word(line, s);
+            }
         }
         if let Some(t) = b.get('T') {
             if t < 0.0 || t.fract() != 0.0 {
@@ -1058,7 +1061,9 @@ impl<'s> Interp<'s> {
                     self.selected_tool = q as u32;
                 }
                 0 | 1 | 2 | 30 | 60 => {}
-                3 | 4 | 5 | 19 | 7 | 8 | 9 | 48..=53 => {}
+                3..=5 => self.out.m_word(line, m, self.rpm),
+                // After the spindle words (RS274/NGC's order of execution).
+                7..=9 | 19 | 48..=53 => {}
                 62..=65 | 67 | 68 => {}
                 66 => bail!("line {line}: M66 (wait for an input) {NEEDS_MACHINE}"),
                 70 => self.saved_modal = Some(self.modal()),
@@ -1082,6 +1087,9 @@ impl<'s> Interp<'s> {
                 }
                 m => bail!("line {line}: M{m} is not supported"),
             }
+        }
+        for &m in b.m.iter().filter(|m| matches!(m, 7..=9)) {
+            self.out.m_word(line, m, self.rpm);
         }
         if b.has_g(4, 0) && b.get('P').is_none() {
             bail!("line {line}: G4 dwell without a P word");

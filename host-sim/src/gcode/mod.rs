@@ -24,7 +24,8 @@
 //! | G33 | a straight move at K × S |
 //! | `#n`, `#<name>`, `#<_global>`, `[expressions]`, functions, O-words | evaluated as rs274ngc defines them; `o<name> call` also finds `name.ngc` beside the program or in `gcode.subroutine_dirs` |
 //! | A B C U V W | carried (offsets, references, parameters); a move that drives one is refused by name unless `gcode.extra_axes = "ignore"` |
-//! | M0 M1 M3-M5 M7-M9 M19 M48-M53 M62-M65 M67 M68, G4, G61 G61.1 G64, G96 G97, comments, N, `/` lines (block delete on) | no effect on the path |
+//! | M3-M5 (with S), M7-M9, S while the spindle runs | no effect on the path; machine events in order with it (`Toolpath::events`: after which point) |
+//! | M0 M1 M19 M48-M53 M62-M65 M67 M68, G4, G61 G61.1 G64, G96 G97, comments, N, `/` lines (block delete on) | no effect on the path |
 //! | M2 M30, a second `%` | end of program |
 //! | M70-M73 | modal state saved and restored |
 //! | G38 probing, M66 inputs, M100-M199, `#<_hal[…]>`, `#<_ini[…]>`, G88 | refused: "needs live machine state" |
@@ -263,6 +264,8 @@ pub struct Program {
     pub caps: Vec<Option<f64>>,
     /// Source lines.
     pub lines: Vec<u32>,
+    /// Spindle and coolant commands: after which point, source line, what.
+    pub events: Vec<(usize, u32, crate::toolpath::MachineEvent)>,
 }
 
 /// Run G-code text; `dir` is where its subroutine files are.
@@ -275,13 +278,14 @@ pub fn run(src: &str, dir: Option<&Path>, settings: &GcodeSettings) -> Result<Pr
         points: it.out.points,
         caps: it.out.caps,
         lines: it.out.lines,
+        events: it.out.events,
     })
 }
 
 /// Parse G-code text; `name` labels the toolpath.
 pub fn parse(name: &str, src: &str, settings: &GcodeSettings) -> Result<Toolpath> {
     let p = run(src, None, settings)?;
-    Toolpath::new(name, p.points, p.caps, p.lines)
+    Toolpath::with_events(name, p.points, p.caps, p.lines, p.events)
 }
 
 /// Read a G-code file; errors name the file and the line.
@@ -293,7 +297,8 @@ pub fn read(path: &Path, settings: &GcodeSettings) -> Result<Toolpath> {
         .map_or("gcode".into(), |s| s.to_string_lossy().into_owned());
     let p = run(&text, interp::program_dir(path).as_deref(), settings)
         .with_context(|| format!("in {}", path.display()))?;
-    Toolpath::new(name, p.points, p.caps, p.lines).with_context(|| format!("in {}", path.display()))
+    Toolpath::with_events(name, p.points, p.caps, p.lines, p.events)
+        .with_context(|| format!("in {}", path.display()))
 }
 
 #[cfg(test)]
@@ -363,6 +368,29 @@ mod tests {
             let e = format!("{:#}", p(src).unwrap_err());
             assert!(e.contains(line), "{src:?}: {e}");
         }
+    }
+
+    #[test]
+    fn spindle_and_coolant_words_are_events_at_their_point() {
+        use crate::toolpath::{MachineEvent, SpindleDir};
+        let t =
+            p("G1 X1 F100\nM3 S1000\nG1 X2\nG1 X2\nS2000\nM8\nG1 X3\nM7\nM9 M5\nG1 X4\n").unwrap();
+        let sp = |dir, rpm| MachineEvent::Spindle { dir, rpm };
+        let co = |flood, mist| MachineEvent::Coolant { flood, mist };
+        assert_eq!(
+            t.events,
+            vec![
+                (1, 2, sp(SpindleDir::Cw, 1000.0)),
+                // After X2 (the repeated X2 merged into it).
+                (2, 5, sp(SpindleDir::Cw, 2000.0)),
+                (2, 6, co(true, false)),
+                (3, 8, co(true, true)),
+                // RS274/NGC: the spindle before the coolant in a block.
+                (3, 9, sp(SpindleDir::Off, 2000.0)),
+                (3, 9, co(false, false)),
+            ]
+        );
+        assert_eq!(t.points.len(), 5);
     }
 
     #[test]

@@ -6,6 +6,7 @@
 use anyhow::{bail, Result};
 
 use super::arc::{self, Centre, Plane};
+use crate::toolpath::{MachineEvent, SpindleDir};
 
 /// The points of a program so far.
 pub struct Sink {
@@ -19,6 +20,12 @@ pub struct Sink {
     pub max_points: usize,
     /// Largest chord error of arcs and curves, mm.
     pub tolerance_mm: f64,
+    /// Spindle and coolant commands: after which point, source line, what.
+    pub events: Vec<(usize, u32, MachineEvent)>,
+    spindle: SpindleDir,
+    rpm: f64,
+    flood: bool,
+    mist: bool,
 }
 
 impl Sink {
@@ -30,6 +37,54 @@ impl Sink {
             lines: vec![0],
             max_points,
             tolerance_mm,
+            events: Vec::new(),
+            spindle: SpindleDir::Off,
+            rpm: 0.0,
+            flood: false,
+            mist: false,
+        }
+    }
+
+    fn event(&mut self, line: u32, e: MachineEvent) {
+        let at = self.points.len().saturating_sub(1);
+        self.events.push((at, line, e));
+    }
+
+    /// An M word of block `line` with the spindle speed `rpm` in force:
+    /// M3 M4 M5 (spindle), M7 M8 M9 (coolant) become events after the
+    /// last point so far (RS274/NGC orders them before the block's
+    /// motion); other M words are not machine events.
+    pub fn m_word(&mut self, line: u32, m: u32, rpm: f64) {
+        let spindle = match m {
+            3 => Some(SpindleDir::Cw),
+            4 => Some(SpindleDir::Ccw),
+            5 => Some(SpindleDir::Off),
+            _ => None,
+        };
+        if let Some(dir) = spindle {
+            self.spindle = dir;
+            self.rpm = rpm;
+            self.event(line, MachineEvent::Spindle { dir, rpm });
+            return;
+        }
+        let (flood, mist) = match m {
+            7 => (self.flood, true),
+            8 => (true, self.mist),
+            9 => (false, false),
+            _ => return,
+        };
+        self.flood = flood;
+        self.mist = mist;
+        self.event(line, MachineEvent::Coolant { flood, mist });
+    }
+
+    /// An S word of block `line` that has no M3/M4/M5: a new speed of a
+    /// running spindle is an event.
+    pub fn s_word(&mut self, line: u32, rpm: f64) {
+        if self.spindle != SpindleDir::Off && rpm != self.rpm {
+            self.rpm = rpm;
+            let dir = self.spindle;
+            self.event(line, MachineEvent::Spindle { dir, rpm });
         }
     }
 

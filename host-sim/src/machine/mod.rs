@@ -1,14 +1,16 @@
 //! Simulated machines: commanded blocks and feeds in, predicted actual tool
 //! motion out, both sampled at the interpolation period.
 //!
-//! - [`fanuc`]: the acc/dec of a FANUC control (Dat & Phuc 2024), in its
-//!   conventional and high-accuracy modes;
-//! - [`servo_xy`]: Cho, Lee & Jeon's X-Y servo model (Tables 4.1-4.2).
+//! - the acc/dec of a FANUC control (Dat & Phuc 2024), in its conventional
+//!   and high-accuracy modes: [`crate::experiments::dat_phuc2024::fanuc`];
+//! - Cho, Lee & Jeon's X-Y servo model (Tables 4.1-4.2):
+//!   [`crate::experiments::cho::servo_xy`];
+//! - [`accdec`]: the acc/dec filters both use.
 
 pub mod accdec;
-pub mod before_interpolation;
-pub mod fanuc;
-pub mod servo_xy;
+
+use crate::experiments::cho::servo_xy;
+use crate::experiments::dat_phuc2024::fanuc;
 
 use serde::{Deserialize, Serialize};
 

@@ -33,8 +33,8 @@
 //! lead.
 
 use crate::config::SimConfig;
+use crate::experiments::dat_phuc2024::fanuc::FanucMode;
 use crate::machine::accdec::{self, AccDecKind};
-use crate::machine::fanuc::FanucMode;
 use crate::machine::{MachineConfig, Motion};
 
 /// The machine following `commanded` (positions every `ts_s` from `t = 0`,
@@ -72,7 +72,7 @@ pub fn machine_accel_mm_per_s2(machine: &MachineConfig) -> Option<[f64; 3]> {
         MachineConfig::Fanuc(f) => Some(f.p1660_max_acceleration_mm_per_s2),
         MachineConfig::ServoXy(s) => {
             let mm_per_rad = s.lead_mm / std::f64::consts::TAU;
-            let axis = |a: &crate::machine::servo_xy::AxisParams| {
+            let axis = |a: &crate::experiments::cho::servo_xy::AxisParams| {
                 let torque = a.torque_constant_n_m_per_a * s.current_limit_a - a.coulomb_n_m;
                 (torque / a.inertia_kg_m2 * mm_per_rad).max(0.0)
             };
@@ -108,7 +108,7 @@ pub fn limit_notes(config: &SimConfig) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::machine::fanuc::FanucConfig;
+    use crate::experiments::dat_phuc2024::fanuc::FanucConfig;
 
     #[test]
     fn the_defaults_agree_with_the_fanuc_machine_and_not_with_the_servo() {

@@ -1,0 +1,125 @@
+//! The step output's wiring: the tick's side ([`Steps`]) and, on a board,
+//! the step timer's interrupt ([`StepIsr`]) around the `controller` step
+//! engine ([`controller::steps`]), built from the `$` settings.
+//!
+//! On a board the tick queues each tick's step plan and TIM2's compare
+//! interrupt runs the engine; under QEMU, whose TIM2 raises no compare
+//! match (see [`crate::board`]), the tick runs the engine itself over its
+//! window ([`controller::stepper::SoftSteps`]).
+
+use controller::config::Config;
+use controller::stepper::first_window;
+#[cfg(not(feature = "qemu"))]
+use controller::stepper::StepPins;
+use controller::stepper::StepQueue;
+#[cfg(not(feature = "qemu"))]
+use controller::steps::Due;
+use controller::steps::{PlanQueue, Planner, StepConfigError, StepEngine, StepShared};
+use fuzzy_core::units::Point3Mm;
+
+use crate::board::{StepGpio, StepTimer};
+
+/// The tick's step output.
+#[cfg(not(feature = "qemu"))]
+pub type Steps = StepQueue<'static>;
+/// The tick's step output.
+#[cfg(feature = "qemu")]
+pub type Steps = controller::stepper::SoftSteps<'static, StepGpio>;
+
+/// The step timer's interrupt: the engine, the timer, the pins and the
+/// batch armed.
+#[cfg(not(feature = "qemu"))]
+pub struct StepIsr {
+    engine: StepEngine<'static>,
+    timer: StepTimer,
+    pins: StepGpio,
+    pending: Due,
+}
+
+/// Nothing: the tick runs the engine.
+#[cfg(feature = "qemu")]
+pub type StepIsr = ();
+
+/// The step output at the origin with `config`'s step settings, plans
+/// through `plans`, figures through `shared`. The first tick must come one
+/// tick period after this call (SysTick started right after it): the
+/// engine's first window starts 1.5 ticks after that
+/// ([`controller::steps::engine`]).
+pub fn start(
+    config: &Config,
+    plans: &'static mut PlanQueue,
+    shared: &'static StepShared,
+    pins: StepGpio,
+    timer: StepTimer,
+) -> Result<(Steps, StepIsr), StepConfigError> {
+    let timing = config.step_timing()?;
+    let spm = [0, 1, 2].map(|a| config.steps_per_mm(a));
+    let (plan_tx, plan_rx) = plans.split();
+    let planner = Planner::new(spm, &timing, Point3Mm::ORIGIN);
+    let start = planner.position();
+    let queue = StepQueue::new(planner, plan_tx, shared);
+    #[cfg(not(feature = "qemu"))]
+    {
+        let mut pins = pins;
+        let mut timer = timer;
+        let first = first_window(timer.now().wrapping_add(timing.window), timing.window);
+        let mut engine = StepEngine::new(timing, plan_rx, shared, start, first);
+        pins.write(engine.idle_edges());
+        let pending = engine.due();
+        // Half a tick ahead: armed in time (else the interrupt is late,
+        // and the engine keeps every minimum all the same).
+        let _ = timer.arm(pending.at);
+        let isr = StepIsr {
+            engine,
+            timer,
+            pins,
+            pending,
+        };
+        Ok((queue.with_kick(StepTimer::kick), isr))
+    }
+    #[cfg(feature = "qemu")]
+    {
+        let _ = timer;
+        let engine = StepEngine::new(
+            timing,
+            plan_rx,
+            shared,
+            start,
+            first_window(0, timing.window),
+        );
+        Ok((controller::stepper::SoftSteps::new(queue, engine, pins), ()))
+    }
+}
+
+#[cfg(not(feature = "qemu"))]
+impl StepIsr {
+    /// The step timer's compare interrupt: a stop (or resume) the tick
+    /// asked for first, then the edges due now, then the next batch. Pins
+    /// first, so that every edge follows its compare match by the same
+    /// few cycles; the engine is told the counter read after the write
+    /// (never earlier than the edges), which keeps every minimum. A batch
+    /// already due when the compare is set is written at once (late by
+    /// the engine's own time); a stale interrupt (nothing due yet) only
+    /// clears the flag.
+    #[inline]
+    pub fn on_interrupt(&mut self) {
+        if self.engine.poll_halt() {
+            self.pending = self.engine.due();
+            if !self.timer.arm(self.pending.at) {
+                return;
+            }
+        } else if !self.timer.reached(self.pending.at) {
+            self.timer.clear();
+            return;
+        }
+        self.pins.write(self.pending.edges);
+        loop {
+            self.engine.done(self.timer.now());
+            self.pending = self.engine.due();
+            if !self.timer.arm(self.pending.at) {
+                return;
+            }
+            self.pins.write(self.pending.edges);
+        }
+    }
+}

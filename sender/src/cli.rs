@@ -1,0 +1,551 @@
+//! The command line: `send`, `status`, `monitor`, `stop`, each over the
+//! link chosen by `--port`/`--tcp`/`--unix`/`--sim`.
+
+use std::io::{IsTerminal, Write};
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use clap::{Args, Parser, Subcommand};
+use host_sim::config::SimConfig;
+use link::Status;
+
+use crate::actions::Script;
+use crate::display::{BarDisplay, LogDisplay};
+use crate::exit::{Exit, Failure};
+use crate::program;
+use crate::record::Recorder;
+use crate::stream::{self, Display, Handshake, Options, Outcome, Session, SettingsCheck};
+use crate::terminal::{Inputs, Interrupts, Keys};
+use crate::transport::{self, Target, DEFAULT_BAUD};
+use crate::view::{bits_f64, state_name, View};
+
+/// Keys while a program runs (shown at the start and in `--help`).
+pub const KEYS_HELP: &str = "keys: space hold/resume, + / - override ±10 % (10-200 %), Esc or Ctrl-C controlled stop, ! e-stop (the protocol has no emergency stop yet: ! sends the same controlled stop as Esc)";
+
+/// Run a program on a motion board running the fuzzy firmware (or on the
+/// firmware in QEMU, or on the controller simulated on the host).
+#[derive(Parser, Debug)]
+#[command(name = "fuzzy-send", version, after_help = AFTER_HELP)]
+pub struct Cli {
+    /// Where the controller is.
+    #[command(flatten)]
+    pub link: LinkArgs,
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+const AFTER_HELP: &str = "\
+Keys while a program runs (when stdin is a terminal):
+  space      feed hold / resume
+  + / -      feed override ±10 % (10-200 %)
+  Esc, Ctrl-C  controlled stop: the motion stops on the path, the rest is dropped
+  !          e-stop: the protocol has no emergency stop message yet, so this
+             sends the same controlled stop as Esc
+Without a terminal the run is unattended: a status line a second on stderr,
+Ctrl-C stops under control.
+
+Exit codes: 0 done, 2 bad command line or script, 3 refused input (nothing
+sent), 4 link lost, 5 refused by the controller (settings, busy, a refused
+command), 6 stopped by the user, 1 other errors.";
+
+/// The link to the controller (exactly one of `--port`, `--tcp`,
+/// `--unix`, `--sim`).
+#[derive(Args, Debug, Clone)]
+pub struct LinkArgs {
+    /// Serial port of the board (/dev/ttyACM0, /dev/ttyUSB0, COM3).
+    #[arg(long, global = true)]
+    pub port: Option<String>,
+    /// TCP address (the QEMU firmware's `cargo run`: 127.0.0.1:7878).
+    #[arg(long, global = true)]
+    pub tcp: Option<String>,
+    /// Unix socket (QEMU's `-serial unix:PATH,server=on`).
+    #[arg(long, global = true)]
+    pub unix: Option<PathBuf>,
+    /// The controller simulated on the host (the firmware's code, no
+    /// board), at this many times real time (`--sim` or `--sim=SPEED`).
+    #[arg(long, global = true, num_args = 0..=1, require_equals = true, default_missing_value = "1", value_name = "SPEED")]
+    pub sim: Option<f64>,
+    /// Baud rate of the serial port.
+    #[arg(long, global = true, default_value_t = DEFAULT_BAUD)]
+    pub baud: u32,
+    /// Silence after which the link counts as lost, s.
+    #[arg(long, global = true, default_value_t = 5.0, value_name = "S")]
+    pub link_timeout: f64,
+}
+
+impl LinkArgs {
+    /// The target.
+    pub fn target(&self) -> Result<Target, Failure> {
+        let given = self.port.is_some() as u8
+            + self.tcp.is_some() as u8
+            + self.unix.is_some() as u8
+            + self.sim.is_some() as u8;
+        if given > 1 {
+            return Err(Failure::new(
+                Exit::Usage,
+                "give one link: --port, --tcp, --unix or --sim",
+            ));
+        }
+        if let Some(p) = &self.port {
+            return Ok(Target::Serial {
+                port: p.clone(),
+                baud: self.baud,
+            });
+        }
+        if let Some(a) = &self.tcp {
+            return Ok(Target::Tcp(a.clone()));
+        }
+        if let Some(u) = &self.unix {
+            return Ok(Target::Unix(u.clone()));
+        }
+        if let Some(s) = self.sim {
+            return Ok(Target::Sim { speed: s });
+        }
+        Err(Failure::new(
+            Exit::Usage,
+            "no link: give --port, --tcp, --unix or --sim",
+        ))
+    }
+
+    fn link_timeout(&self) -> Result<Duration, Failure> {
+        if self.link_timeout.is_finite() && (0.5..=3600.0).contains(&self.link_timeout) {
+            Ok(Duration::from_secs_f64(self.link_timeout))
+        } else {
+            Err(Failure::new(
+                Exit::Usage,
+                "--link-timeout must be within 0.5-3600 s",
+            ))
+        }
+    }
+}
+
+/// The commands.
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Send a program and watch it run.
+    Send(SendArgs),
+    /// Print the controller's status once.
+    Status {
+        /// As JSON (`link::Status`).
+        #[arg(long)]
+        json: bool,
+    },
+    /// Print a status line every period until Ctrl-C.
+    Monitor {
+        /// Between lines, s.
+        #[arg(long, default_value_t = 1.0, value_name = "S")]
+        period: f64,
+    },
+    /// Controlled stop of whatever the controller runs (abort: the motion
+    /// stops on the path, everything queued is dropped).
+    Stop,
+}
+
+/// `send`.
+#[derive(Args, Debug)]
+pub struct SendArgs {
+    /// G-code (.nc .ngc .gcode .tap .cnc .g), CSV (x,y,z[,feed]) or a
+    /// built-in shape (infinity, trident, butterfly).
+    pub file: String,
+    /// Largest scheduled feed, mm/min (default: the controller's feed
+    /// maximum).
+    #[arg(long, value_name = "MM_PER_MIN")]
+    pub f_max: Option<f64>,
+    /// Smallest scheduled feed, mm/min.
+    #[arg(long, value_name = "MM_PER_MIN", default_value_t = controller::settings::F_MIN_MM_PER_MIN as f64)]
+    pub f_min: f64,
+    /// Feed override to start with, percent (10-200; default: the
+    /// controller's).
+    #[arg(long = "override", value_name = "PERCENT", value_parser = clap::value_parser!(u16).range(10..=200))]
+    pub override_percent: Option<u16>,
+    /// Timed actions (`at 2.0 s: hold`, `after 1 s: resume`, `at point
+    /// 500: override 50`, `at 5 s: stop`), one a line; `-` reads stdin.
+    #[arg(long, value_name = "FILE")]
+    pub script: Option<PathBuf>,
+    /// Write what was sent and every message from the controller to this
+    /// file (JSON lines).
+    #[arg(long, value_name = "FILE")]
+    pub record: Option<PathBuf>,
+    /// Send even if the controller's settings differ from the host's.
+    #[arg(long)]
+    pub no_check: bool,
+    /// Have the controller report every feed it schedules (and its
+    /// planner's events) and check each against the host's schedule bit
+    /// for bit; costs about 23 bytes a point of the link's return channel.
+    #[arg(long)]
+    pub verify: bool,
+    /// host-sim configuration (TOML) whose `[gcode]` settings read the
+    /// file (chord tolerance of arcs, rapid feed).
+    #[arg(long, value_name = "TOML")]
+    pub config: Option<PathBuf>,
+    /// Status lines instead of a progress bar, even on a terminal.
+    #[arg(long)]
+    pub log: bool,
+}
+
+fn say(text: &str) {
+    eprintln!("fuzzy-send: {text}");
+}
+
+/// Run a parsed command line; the exit code.
+pub fn run(cli: Cli) -> Exit {
+    match dispatch(cli) {
+        Ok(e) => e,
+        Err(f) => {
+            say(&f.message);
+            f.exit
+        }
+    }
+}
+
+fn dispatch(cli: Cli) -> Result<Exit, Failure> {
+    let target = cli.link.target()?;
+    let link_timeout = cli.link.link_timeout()?;
+    match cli.command {
+        Command::Send(a) => send(a, &target, link_timeout),
+        Command::Status { json } => status(&target, link_timeout, json),
+        Command::Monitor { period } => monitor(&target, link_timeout, period),
+        Command::Stop => stop(&target, link_timeout),
+    }
+}
+
+fn connect(
+    target: &Target,
+    rec: Recorder,
+) -> Result<(Session, Option<crate::sim::SimHandle>), Failure> {
+    let o = transport::open(target)?;
+    Ok((Session::new(o.writer, o.reader, rec), o.sim))
+}
+
+fn base_options(link_timeout: Duration) -> Result<Options, Failure> {
+    let cfg = program::scheduler_config(
+        program::machine_feed_max(),
+        controller::settings::F_MIN_MM_PER_MIN as f64,
+    )
+    .map_err(|e| Failure::new(Exit::Error, e))?;
+    let mut o = Options::new(cfg);
+    o.link_timeout = link_timeout;
+    Ok(o)
+}
+
+/// A status in a few lines.
+pub fn status_text(s: &Status) -> String {
+    let [x, y, z] = s.pos_mm.map(bits_f64);
+    format!(
+        "state: {}\nposition: X{x:.4} Y{y:.4} Z{z:.4} mm\nfeed: {:.1} mm/min, override {} %\nplanner: {} points, scheduler lookahead: {} points\nsequence: next {}, credit to {}\npath: point {} reached, {} underruns\nlink: {} bad frames\nticks: {} ({} moving on this path, {} empty)\nsteps: {} ticks short (worst {} steps), {} late ticks\n",
+        state_name(s.motion),
+        bits_f64(s.feed_mm_per_min),
+        s.override_percent,
+        s.planned_points,
+        s.points_held,
+        s.next_seq,
+        s.window_end,
+        s.point_reached,
+        s.underruns,
+        s.bad_frames,
+        s.ticks,
+        s.moving_ticks,
+        s.empty_ticks,
+        s.step_lag_ticks,
+        s.step_lag_max_steps,
+        s.step_late_ticks,
+    )
+}
+
+fn status(target: &Target, link_timeout: Duration, json: bool) -> Result<Exit, Failure> {
+    let (mut s, _sim) = connect(target, Recorder::none())?;
+    let st = s.status_within(link_timeout, |_| {})?;
+    if json {
+        let text =
+            serde_json::to_string(&st).map_err(|e| Failure::new(Exit::Error, e.to_string()))?;
+        println!("{text}");
+    } else {
+        print!("{}", status_text(&st));
+    }
+    Ok(Exit::Done)
+}
+
+fn monitor(target: &Target, link_timeout: Duration, period: f64) -> Result<Exit, Failure> {
+    if !(period.is_finite() && (0.05..=3600.0).contains(&period)) {
+        return Err(Failure::new(
+            Exit::Usage,
+            "--period must be within 0.05-3600 s",
+        ));
+    }
+    let stop = Interrupts::install();
+    let (mut s, _sim) = connect(target, Recorder::none())?;
+    let t0 = Instant::now();
+    let period = Duration::from_secs_f64(period);
+    let mut out = std::io::stdout();
+    while stop.count() == 0 {
+        let st = s.status_within(link_timeout, |_| {})?;
+        let v = View {
+            status: st,
+            queued: stream::queued(&st, controller::settings::CMD_CREDIT),
+            reached: Some(st.point_reached),
+            elapsed: t0.elapsed(),
+            ..View::default()
+        };
+        let _ = writeln!(out, "[{:>7.1} s] {}", v.elapsed.as_secs_f64(), v.line());
+        let _ = out.flush();
+        let until = Instant::now() + period;
+        while Instant::now() < until && stop.count() == 0 {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+    Ok(Exit::Done)
+}
+
+fn stop(target: &Target, link_timeout: Duration) -> Result<Exit, Failure> {
+    let (mut s, _sim) = connect(target, Recorder::none())?;
+    let opts = base_options(link_timeout)?;
+    let a = s.stop(&opts)?;
+    if let link::DeviceMsg::Aborted { pos_mm, .. } = a {
+        let [x, y, z] = pos_mm.map(bits_f64);
+        say(&format!(
+            "stopped at X{x:.3} Y{y:.3} Z{z:.3}; everything queued was dropped"
+        ));
+    }
+    Ok(Exit::Done)
+}
+
+fn read_script(path: &PathBuf) -> Result<Script, Failure> {
+    let text = if path.as_os_str() == "-" {
+        std::io::read_to_string(std::io::stdin())
+    } else {
+        std::fs::read_to_string(path)
+    }
+    .map_err(|e| Failure::new(Exit::Usage, format!("{}: {e}", path.display())))?;
+    Script::parse(&text).map_err(|e| Failure::new(Exit::Usage, format!("{}: {e}", path.display())))
+}
+
+fn describe_handshake(hs: &Handshake) -> String {
+    let mut s = match hs.hello {
+        Some(h) => format!(
+            "controller fresh from reset: {} Hz ticks, {} planner points, feed max {} mm/min, acceleration {} mm/s²",
+            h.tick_hz, h.planner_points, h.feed_max_mm_per_min, h.accel_mm_per_s2
+        ),
+        None => format!(
+            "controller already running (sequence resumed at {})",
+            hs.status.next_seq
+        ),
+    };
+    match &hs.settings {
+        SettingsCheck::Matched => s.push_str("; settings match the host's"),
+        SettingsCheck::Unchecked => s.push_str(
+            "; settings not checked (its hello went out at reset: reset the board to check them)",
+        ),
+        SettingsCheck::Differ(d) => {
+            s.push_str("; WARNING, settings differ (--no-check): ");
+            s.push_str(&d.join("; "));
+        }
+    }
+    s
+}
+
+/// The summary lines after a run.
+pub fn summary_text(o: &Outcome) -> Vec<String> {
+    let s = &o.summary;
+    let mut out = Vec::new();
+    if s.scheduled > 0 {
+        if s.feed_mismatches == 0 {
+            out.push(format!(
+                "feeds: {} points scheduled by the controller, every feed equal to the host's schedule bit for bit",
+                s.scheduled
+            ));
+        } else {
+            let ex: Vec<String> = s
+                .mismatch_examples
+                .iter()
+                .map(|(i, c, h)| format!("point {}: controller {c} host {h} mm/min", i + 1))
+                .collect();
+            out.push(format!(
+                "WARNING: {} of {} scheduled feeds differ from the host's schedule (firmware built with other settings?): {}",
+                s.feed_mismatches,
+                s.scheduled,
+                ex.join(", ")
+            ));
+        }
+    }
+    if o.exit == Exit::Done && !s.ended_on_last_point {
+        out.push("WARNING: the tool did not end exactly on the path's last point".into());
+    }
+    if let Some(st) = s.last_status {
+        out.push(format!(
+            "link: {} resends, {} refusals reported; controller: {} underruns, {} bad frames",
+            s.resends, s.refusals, st.underruns, st.bad_frames
+        ));
+    }
+    out
+}
+
+fn send(a: SendArgs, target: &Target, link_timeout: Duration) -> Result<Exit, Failure> {
+    // Everything that can be refused is checked before connecting.
+    let sim_config = match &a.config {
+        Some(p) => SimConfig::read(p).map_err(|e| Failure::new(Exit::Input, format!("{e:#}")))?,
+        None => SimConfig::default(),
+    };
+    let script = a.script.as_ref().map(read_script).transpose()?;
+    let mut program = program::load(&a.file, &sim_config)
+        .map_err(|e| Failure::new(Exit::Input, e.to_string()))?;
+    program::scheduler_config(a.f_max.unwrap_or(program::machine_feed_max()), a.f_min)
+        .map_err(|e| Failure::new(Exit::Usage, e))?;
+    let rec = match &a.record {
+        Some(p) => Recorder::create(p)
+            .map_err(|e| Failure::new(Exit::Error, format!("{}: {e}", p.display())))?,
+        None => Recorder::none(),
+    };
+
+    let (mut session, _sim) = connect(target, rec)?;
+    let mut opts = base_options(link_timeout)?;
+    opts.check_settings = !a.no_check;
+    opts.initial_override = a.override_percent;
+    opts.reports = a.verify;
+    let hs = session.handshake(&opts)?;
+    // From here on Ctrl-C is a controlled stop (before, it ends the
+    // sender at once: nothing was sent).
+    let interrupts = Interrupts::install();
+    say(&format!(
+        "connected to {target}: {}",
+        describe_handshake(&hs)
+    ));
+    let f_max = a.f_max.unwrap_or_else(|| {
+        hs.hello.map_or(program::machine_feed_max(), |h| {
+            h.feed_max_mm_per_min as f64
+        })
+    });
+    opts.config =
+        program::scheduler_config(f_max, a.f_min).map_err(|e| Failure::new(Exit::Usage, e))?;
+    // A G-code program starts where the tool is.
+    let here = hs.status.pos_mm.map(bits_f64);
+    if matches!(program.source, program::Source::File(_))
+        && here != sim_config.gcode.start_mm
+        && !a.file.to_ascii_lowercase().ends_with(".csv")
+    {
+        let mut c = sim_config.clone();
+        c.gcode.start_mm = here;
+        program =
+            program::load(&a.file, &c).map_err(|e| Failure::new(Exit::Input, e.to_string()))?;
+    }
+    say(&format!(
+        "sending {}: {} points, {:.1} mm, F_max {} mm/min, F_min {} mm/min",
+        program.name,
+        program.len(),
+        program.length_mm(),
+        opts.config.f_max.to_f64(),
+        opts.config.f_min.to_f64()
+    ));
+
+    let interactive = std::io::stdin().is_terminal() && a.script.is_none();
+    let bar = !a.log && std::io::stderr().is_terminal();
+    let mut display: Box<dyn Display> = if bar {
+        Box::new(BarDisplay::new(
+            program.length_mm(),
+            if interactive { KEYS_HELP } else { "" },
+        ))
+    } else {
+        let mut d = LogDisplay::new(std::io::stderr(), Duration::from_secs(1));
+        if interactive {
+            d.note(KEYS_HELP);
+        }
+        Box::new(d)
+    };
+    let keys = if interactive {
+        match Keys::start() {
+            Ok(k) => Some(k),
+            Err(e) => {
+                say(&format!("keys unavailable ({e}): running unattended"));
+                None
+            }
+        }
+    } else {
+        None
+    };
+    let mut inputs = Inputs::new(keys, script, interrupts);
+    let outcome = session.run(&program, &hs, &opts, &mut inputs, display.as_mut());
+    display.finish();
+    // Leave raw mode before the summary.
+    drop(inputs);
+    say(&outcome.message);
+    for l in summary_text(&outcome) {
+        say(&l);
+    }
+    if let Err(e) = session.finish_record() {
+        say(&format!("the record could not be written: {e}"));
+        if outcome.exit == Exit::Done {
+            return Ok(Exit::Error);
+        }
+    }
+    Ok(outcome.exit)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::stream::Summary;
+
+    fn outcome(exit: Exit, summary: Summary) -> Outcome {
+        Outcome {
+            exit,
+            message: String::new(),
+            summary,
+        }
+    }
+
+    #[test]
+    fn the_summary_says_whether_the_run_was_exact() {
+        let good = Summary {
+            scheduled: 10,
+            ended_on_last_point: true,
+            last_status: Some(Status::default()),
+            ..Summary::default()
+        };
+        let t = summary_text(&outcome(Exit::Done, good.clone()));
+        assert!(t[0].contains("bit for bit"), "{t:?}");
+        assert!(!t.iter().any(|l| l.contains("WARNING")), "{t:?}");
+        let bad = Summary {
+            feed_mismatches: 1,
+            mismatch_examples: vec![(4, 100.0, 101.0)],
+            ended_on_last_point: false,
+            ..good
+        };
+        let t = summary_text(&outcome(Exit::Done, bad.clone()));
+        assert!(
+            t[0].starts_with("WARNING: 1 of 10") && t[0].contains("point 5"),
+            "{t:?}"
+        );
+        assert!(t[1].contains("last point"), "{t:?}");
+        // A stopped run is not expected on the last point.
+        let t = summary_text(&outcome(Exit::UserStop, bad));
+        assert!(!t.iter().any(|l| l.contains("last point")), "{t:?}");
+    }
+
+    #[test]
+    fn one_link_at_most() {
+        let c = Cli::try_parse_from([
+            "fuzzy-send",
+            "send",
+            "x.nc",
+            "--port",
+            "/dev/x",
+            "--tcp",
+            "a:1",
+        ])
+        .unwrap();
+        assert_eq!(c.link.target().unwrap_err().exit, Exit::Usage);
+        let c = Cli::try_parse_from(["fuzzy-send", "--sim=3", "send", "x.nc"]).unwrap();
+        assert_eq!(c.link.target().unwrap(), Target::Sim { speed: 3.0 });
+        let c = Cli::try_parse_from(["fuzzy-send", "status", "--port", "/dev/x"]).unwrap();
+        assert_eq!(
+            c.link.target().unwrap(),
+            Target::Serial {
+                port: "/dev/x".into(),
+                baud: DEFAULT_BAUD
+            }
+        );
+        assert!(
+            Cli::try_parse_from(["fuzzy-send", "send", "x", "--override", "300", "--sim"]).is_err()
+        );
+    }
+}

@@ -1,0 +1,421 @@
+//! The program to send: a G-code or CSV file (host-sim's readers, so every
+//! G-code feature host-sim reads can be sent) or a built-in shape, checked
+//! point by point with the controller's own acceptance rules before
+//! anything is sent, and its feeds scheduled on the host with the
+//! controller's scheduler (for the ETA and to check the feeds the
+//! controller reports).
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use clap::ValueEnum;
+use controller::command::{config_from_link, point_from_link, MIN_FEED_MM_PER_MIN};
+use controller::settings::{Sched, FEED_MAX_MM_PER_MIN};
+use fuzzy_core::lin2021::COMPACT;
+use fuzzy_core::scheduler::{PathPoint, SchedulerConfig};
+use fuzzy_core::units::{FeedMmPerMin, Point3Mm};
+use host_sim::config::SimConfig;
+use host_sim::shapes::Shape;
+use link::batch::to_grid;
+
+/// Where a program came from.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Source {
+    /// A file (G-code or CSV, by extension).
+    File(PathBuf),
+    /// A built-in shape (`host_sim::shapes`).
+    Shape(Shape),
+}
+
+/// A program ready to send: points in path order (the first is where the
+/// program assumes the tool starts), each with its source line, on the
+/// link's grid ([`on_grid`]).
+#[derive(Clone, Debug)]
+pub struct Program {
+    /// A short name (file stem or shape name).
+    pub name: String,
+    /// Where it came from.
+    pub source: Source,
+    /// The points as the controller receives them (tags: index).
+    pub points: Vec<PathPoint>,
+    /// The source line of each point (0: none, e.g. the start position).
+    pub lines: Vec<u32>,
+    /// Path length up to each point, mm.
+    pub cum_mm: Vec<f64>,
+}
+
+/// Input the sender refuses: where (file and line, when the reader names
+/// one) and the reader's message.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct InputError {
+    /// The file (or the argument, for a shape name).
+    pub file: String,
+    /// The line, if the reader named one.
+    pub line: Option<u32>,
+    /// What is wrong.
+    pub message: String,
+}
+
+impl fmt::Display for InputError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.line {
+            Some(l) => write!(f, "{}:{l}: {}", self.file, self.message),
+            None => write!(f, "{}: {}", self.file, self.message),
+        }
+    }
+}
+
+impl std::error::Error for InputError {}
+
+/// The line number in a reader's message (`line 12: …` or `… line 12 …`):
+/// the message without that prefix, and the number.
+fn split_line(message: &str) -> (Option<u32>, String) {
+    let Some(at) = message.find("line ") else {
+        return (None, message.to_string());
+    };
+    let digits: String = message[at + 5..]
+        .chars()
+        .take_while(|c| c.is_ascii_digit())
+        .collect();
+    let Ok(line) = digits.parse::<u32>() else {
+        return (None, message.to_string());
+    };
+    let rest = &message[at + 5 + digits.len()..];
+    if at == 0 {
+        let rest = rest.trim_start_matches([':', ',']).trim_start();
+        (Some(line), rest.to_string())
+    } else {
+        (Some(line), message.to_string())
+    }
+}
+
+impl InputError {
+    /// From a reader's error: the innermost message naming a line wins
+    /// (the readers put `in FILE` around `line N: …`).
+    fn from_reader(file: &str, e: &anyhow::Error) -> Self {
+        let inner = e.chain().last().map(|c| c.to_string()).unwrap_or_default();
+        let (line, message) = split_line(&inner);
+        if line.is_some() {
+            return InputError {
+                file: file.to_string(),
+                line,
+                message,
+            };
+        }
+        // No line in the root cause: look through the whole chain.
+        let full = format!("{e:#}");
+        let (line, _) = split_line(&full);
+        InputError {
+            file: file.to_string(),
+            line,
+            message: inner,
+        }
+    }
+}
+
+/// Shape names, for messages.
+fn shape_names() -> String {
+    Shape::ALL
+        .iter()
+        .map(|s| s.name())
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// `p` with its coordinates rounded to the link's grid
+/// (`link::batch::to_grid`, 2⁻¹⁶ mm): such points travel in compact
+/// `Points` batches, and the controller holds exactly these bits.
+pub fn on_grid(p: PathPoint) -> PathPoint {
+    let [x, y, z] = p.pos.to_bits().map(to_grid);
+    PathPoint {
+        pos: Point3Mm::from_bits(x, y, z),
+        ..p
+    }
+}
+
+/// Load `spec`: an existing file (G-code `.nc .ngc .gcode .tap .cnc .g` or
+/// `.csv`, through `host_sim::inputs::load` with the configuration's
+/// `[gcode]` settings), else a shape name.
+pub fn load(spec: &str, config: &SimConfig) -> Result<Program, InputError> {
+    let path = Path::new(spec);
+    let (t, source) = if path.exists() {
+        let t = host_sim::inputs::load(path, &config.gcode)
+            .map_err(|e| InputError::from_reader(spec, &e))?;
+        (t, Source::File(path.to_path_buf()))
+    } else {
+        match Shape::from_str(spec, true) {
+            Ok(shape) => {
+                let t = shape
+                    .toolpath()
+                    .map_err(|e| InputError::from_reader(spec, &e))?;
+                (t, Source::Shape(shape))
+            }
+            Err(_) => {
+                return Err(InputError {
+                    file: spec.to_string(),
+                    line: None,
+                    message: format!("no such file, nor a built-in shape ({})", shape_names()),
+                })
+            }
+        }
+    };
+    let blocks_mm = (0..t.len()).map(|i| t.block_length_mm(i)).collect();
+    let points = t.path_points();
+    Program::new(t.name, source, points, t.lines, blocks_mm, spec)
+}
+
+impl Program {
+    /// From a toolpath's points, source lines and block lengths: every
+    /// point checked as the controller checks a point command
+    /// (`controller::command::point_from_link`), so that nothing the
+    /// controller would refuse is sent.
+    pub fn new(
+        name: String,
+        source: Source,
+        points: Vec<PathPoint>,
+        lines: Vec<u32>,
+        blocks_mm: Vec<f64>,
+        file: &str,
+    ) -> Result<Self, InputError> {
+        // On the link's grid, consecutive points that became one merged
+        // (the scheduler would merge them: indices here and there agree).
+        let mut kept = Vec::with_capacity(points.len());
+        let mut kept_lines = Vec::with_capacity(points.len());
+        let mut kept_mm: Vec<f64> = Vec::with_capacity(points.len());
+        for ((p, line), b) in points.into_iter().zip(lines).zip(blocks_mm) {
+            let p = on_grid(p);
+            if kept.last().is_some_and(|q: &PathPoint| q.pos == p.pos) {
+                if let Some(m) = kept_mm.last_mut() {
+                    *m += b;
+                }
+                continue;
+            }
+            kept.push(p);
+            kept_lines.push(line);
+            kept_mm.push(b);
+        }
+        let (points, lines, blocks_mm) = (kept, kept_lines, kept_mm);
+        for (p, &line) in points.iter().zip(&lines) {
+            let bits = p.pos.to_bits();
+            let cap = p.feed_cap.map(|f| f.0.to_bits());
+            if point_from_link(0, bits, cap).is_none() {
+                let why = match p.feed_cap {
+                    Some(f) if f < MIN_FEED_MM_PER_MIN => format!(
+                        "feed {} mm/min is below the controller's minimum of {} mm/min",
+                        f.to_f64(),
+                        MIN_FEED_MM_PER_MIN.to_f64()
+                    ),
+                    _ => "a value the controller refuses (coordinate or feed out of range)"
+                        .to_string(),
+                };
+                return Err(InputError {
+                    file: file.to_string(),
+                    line: (line > 0).then_some(line),
+                    message: why,
+                });
+            }
+        }
+        let mut s = 0.0;
+        let cum_mm = blocks_mm
+            .iter()
+            .map(|b| {
+                s += b;
+                s
+            })
+            .collect();
+        Ok(Program {
+            name,
+            source,
+            points,
+            lines,
+            cum_mm,
+        })
+    }
+
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// Whether there are none (never, for a loaded program).
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+
+    /// Path length, mm.
+    pub fn length_mm(&self) -> f64 {
+        self.cum_mm.last().copied().unwrap_or(0.0)
+    }
+
+    /// Path length up to point index `i` (clamped), mm.
+    pub fn length_to_mm(&self, i: usize) -> f64 {
+        match self.cum_mm.len() {
+            0 => 0.0,
+            n => self.cum_mm[i.min(n - 1)],
+        }
+    }
+
+    /// The source line of the point with index `i`, if it has one.
+    pub fn line_of(&self, i: usize) -> Option<u32> {
+        self.lines.get(i).copied().filter(|&l| l > 0)
+    }
+
+    /// Every point as the controller's scheduler schedules it
+    /// (`controller::settings::Sched`, the firmware's sizes): its index in
+    /// the path (duplicates merged) and feed, I32F32 bits, by point.
+    pub fn host_schedule(&self, config: SchedulerConfig) -> Vec<Option<(u32, i64)>> {
+        let mut out = vec![None; self.points.len()];
+        if let Ok(mut s) = Sched::new(&COMPACT, config) {
+            let _ = s.run(
+                self.points.iter().enumerate().map(|(i, p)| PathPoint {
+                    tag: i as u32,
+                    ..*p
+                }),
+                |o| {
+                    if let Some(slot) = out.get_mut(o.point.tag as usize) {
+                        *slot = Some((o.index, o.feed.0.to_bits()));
+                    }
+                },
+            );
+        }
+        out
+    }
+
+    /// Time of each block (`p[i-1] → p[i]`) at the scheduled feeds capped
+    /// to the machine's maximum, at 100 % override, without acceleration:
+    /// cumulative, s, by point index.
+    pub fn cum_time_s(&self, feeds: &[Option<i64>], feed_max_mm_per_min: f64) -> Vec<f64> {
+        let mut out = Vec::with_capacity(self.points.len());
+        let mut t = 0.0;
+        for i in 0..self.points.len() {
+            let len = self.length_to_mm(i)
+                - if i == 0 {
+                    0.0
+                } else {
+                    self.length_to_mm(i - 1)
+                };
+            let f = feeds
+                .get(i)
+                .copied()
+                .flatten()
+                .map_or(feed_max_mm_per_min, |b| b as f64 / 4294967296.0)
+                .min(feed_max_mm_per_min)
+                .max(1e-3);
+            t += len / f * 60.0;
+            out.push(t);
+        }
+        out
+    }
+}
+
+/// The scheduler settings for `--f-max`/`--f-min` (mm/min), if the
+/// controller would take them (`controller::command::config_from_link`).
+pub fn scheduler_config(f_max: f64, f_min: f64) -> Result<SchedulerConfig, String> {
+    let ok = |v: f64| v.is_finite() && (0.0..=1e6).contains(&v);
+    if !ok(f_max) || !ok(f_min) {
+        return Err(format!(
+            "--f-max {f_max} / --f-min {f_min}: feeds must be within [0, 1e6] mm/min"
+        ));
+    }
+    let (a, b) = (
+        FeedMmPerMin::from_f64(f_max).0.to_bits(),
+        FeedMmPerMin::from_f64(f_min).0.to_bits(),
+    );
+    config_from_link(a, b).ok_or_else(|| {
+        format!("--f-max {f_max} / --f-min {f_min}: the controller needs 1 ≤ F_min ≤ F_max (F_max at least 1 mm/min)")
+    })
+}
+
+/// The machine's feed maximum the host was built for, mm/min.
+pub fn machine_feed_max() -> f64 {
+    FEED_MAX_MM_PER_MIN as f64
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn repo(rel: &str) -> String {
+        format!("{}/../{rel}", env!("CARGO_MANIFEST_DIR"))
+    }
+
+    #[test]
+    fn a_reader_error_becomes_file_line_message() {
+        let dir = std::env::temp_dir().join(format!("sender-prog-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("bad.ngc");
+        std::fs::write(&f, "G21 G90\nG1 X1 F100\nG999 X2\n").unwrap();
+        let spec = f.to_string_lossy().into_owned();
+        let e = load(&spec, &SimConfig::default()).unwrap_err();
+        assert_eq!(e.file, spec);
+        assert_eq!(e.line, Some(3), "{e}");
+        assert!(!e.message.starts_with("line"), "{e}");
+        assert!(e.to_string().starts_with(&format!("{spec}:3: ")), "{e}");
+    }
+
+    #[test]
+    fn a_feed_below_the_controllers_minimum_is_refused_with_its_line() {
+        let dir = std::env::temp_dir().join(format!("sender-prog-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("slow.ngc");
+        std::fs::write(&f, "G21 G90\nG1 X1 F100\nG1 X2 F0.5\n").unwrap();
+        let e = load(&f.to_string_lossy(), &SimConfig::default()).unwrap_err();
+        assert_eq!(e.line, Some(3), "{e}");
+        assert!(e.message.contains("minimum"), "{e}");
+    }
+
+    #[test]
+    fn split_line_finds_the_number() {
+        assert_eq!(split_line("line 12: bad"), (Some(12), "bad".into()));
+        assert_eq!(
+            split_line("at line 7 the arc"),
+            (Some(7), "at line 7 the arc".into())
+        );
+        assert_eq!(split_line("no number"), (None, "no number".into()));
+        assert_eq!(split_line("line x"), (None, "line x".into()));
+    }
+
+    #[test]
+    fn files_and_shapes_load_and_unknown_names_are_refused() {
+        let g = SimConfig::default();
+        let p = load(&repo("tests/data/short_segments.ngc"), &g).unwrap();
+        assert!(p.len() > 4000);
+        assert_eq!(p.points[0].pos.to_bits(), [0; 3], "starts at the origin");
+        assert!(p
+            .points
+            .iter()
+            .all(|q| q.pos.to_bits().iter().all(|&c| link::batch::on_grid(c))));
+        assert!(p.points.windows(2).all(|w| w[0].pos != w[1].pos));
+        assert!(p.line_of(1).is_some());
+        let c = load(&repo("tests/data/shapes/trident.csv"), &g).unwrap();
+        assert!(c.len() > 1000);
+        let s = load("Trident", &g).unwrap();
+        assert_eq!(s.source, Source::Shape(Shape::Trident));
+        assert!((s.length_mm() - c.length_mm()).abs() < 1e-3);
+        let e = load("no-such-thing", &g).unwrap_err();
+        assert!(e.message.contains("trident"), "{e}");
+        assert_eq!(e.line, None);
+    }
+
+    #[test]
+    fn host_feeds_cover_every_point_and_time_adds_up() {
+        let p = load("trident", &SimConfig::default()).unwrap();
+        let cfg = scheduler_config(3000.0, 60.0).unwrap();
+        let sched = p.host_schedule(cfg);
+        assert!(sched.iter().all(|f| f.is_some()));
+        let feeds: Vec<Option<i64>> = sched.iter().map(|f| f.map(|x| x.1)).collect();
+        let t = p.cum_time_s(&feeds, 5000.0);
+        assert_eq!(t.len(), p.len());
+        assert!(t.windows(2).all(|w| w[1] >= w[0]));
+        // At most F_max: at least length / F_max.
+        assert!(t[t.len() - 1] >= p.length_mm() / 3000.0 * 60.0 - 1e-9);
+    }
+
+    #[test]
+    fn scheduler_settings_are_checked_as_the_controller_does() {
+        assert!(scheduler_config(3000.0, 60.0).is_ok());
+        assert!(scheduler_config(60.0, 3000.0).is_err());
+        assert!(scheduler_config(0.5, 0.0).is_err());
+        assert!(scheduler_config(f64::NAN, 0.0).is_err());
+    }
+}

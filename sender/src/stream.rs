@@ -1,0 +1,1061 @@
+//! The sender's session with a controller over any byte stream
+//! (`link::client::Connection`: sequence numbers, credit and go-back-N
+//! resends are the link client's): the handshake and settings check, the
+//! streaming loop with the operator's actions and the live view, and the
+//! decisions that end a run (done, link lost, refused, stopped).
+
+use std::io::{Read, Write};
+use std::time::{Duration, Instant};
+
+use controller::alarm::Latch;
+use controller::config::Config;
+use controller::session::DeviceLink;
+use controller::settings::{Plan, CMD_CREDIT, MOTION_CONFIG};
+use fuzzy_core::scheduler::SchedulerConfig;
+use link::client::{Connection, Hello, SILENCE};
+use link::{DeviceMsg, ErrorCode, HostMsg, Motion, PlanEvent, Status, StoreResult};
+
+use crate::actions::{Action, Effect, Operator, StopKind};
+use crate::exit::{Exit, Failure};
+use crate::program::Program;
+use crate::record::Recorder;
+use crate::view::{bits_f64, Eta, View};
+
+/// How a run is paced and checked.
+#[derive(Clone, Copy, Debug)]
+pub struct Options {
+    /// The scheduler's F_max and F_min for the path.
+    pub config: SchedulerConfig,
+    /// How often to ask for a status while streaming.
+    pub status_period: Duration,
+    /// Silence from the controller after which the link counts as lost.
+    pub link_timeout: Duration,
+    /// How long a controlled stop may take to be confirmed.
+    pub stop_timeout: Duration,
+    /// How long to wait for a hello after connecting (a controller that
+    /// just reset sends one; one already running does not).
+    pub hello_wait: Duration,
+    /// Refuse a controller whose settings differ from the host's.
+    pub check_settings: bool,
+    /// An override to set before streaming, percent.
+    pub initial_override: Option<u16>,
+    /// Ask the controller to report every input of its planner (the
+    /// scheduled feeds, checked against the host's schedule bit for bit,
+    /// and the events; about 23 bytes a point back over the link).
+    pub reports: bool,
+}
+
+impl Options {
+    /// Defaults for a path with this scheduler configuration.
+    pub fn new(config: SchedulerConfig) -> Self {
+        Options {
+            config,
+            status_period: Duration::from_millis(200),
+            link_timeout: Duration::from_secs(5),
+            stop_timeout: Duration::from_secs(30),
+            hello_wait: Duration::from_millis(500),
+            check_settings: true,
+            initial_override: None,
+            reports: false,
+        }
+    }
+}
+
+/// Where the run shows itself (a progress bar, a log, nothing).
+pub trait Display {
+    /// The current view (called often; throttle as needed).
+    fn show(&mut self, view: &View);
+    /// A message for the operator.
+    fn note(&mut self, text: &str);
+    /// The run ended: leave what is shown in place.
+    fn finish(&mut self) {}
+}
+
+/// A display that shows nothing.
+pub struct Quiet;
+
+impl Display for Quiet {
+    fn show(&mut self, _: &View) {}
+    fn note(&mut self, _: &str) {}
+}
+
+/// Where operator actions come from (keys, a script, Ctrl-C).
+pub trait Actions {
+    /// The actions due now, `elapsed` since streaming started, with
+    /// `reached` points of the program reached.
+    fn poll(&mut self, elapsed: Duration, reached: u32) -> Vec<Action>;
+}
+
+/// No actions.
+pub struct NoActions;
+
+impl Actions for NoActions {
+    fn poll(&mut self, _: Duration, _: u32) -> Vec<Action> {
+        Vec::new()
+    }
+}
+
+impl Actions for crate::actions::Script {
+    fn poll(&mut self, elapsed: Duration, reached: u32) -> Vec<Action> {
+        self.due(elapsed, reached)
+    }
+}
+
+/// The settings check of the handshake.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum SettingsCheck {
+    /// The controller's hello matches the host's settings.
+    Matched,
+    /// No hello came (the controller was already running): not checked.
+    Unchecked,
+    /// They differ (only with the check off; else the handshake fails).
+    Differ(Vec<String>),
+}
+
+/// What the handshake found.
+#[derive(Clone, Debug)]
+pub struct Handshake {
+    /// The hello, if the controller just reset.
+    pub hello: Option<Hello>,
+    /// Its status.
+    pub status: Status,
+    /// The settings check.
+    pub settings: SettingsCheck,
+    /// The credit of an empty command queue.
+    pub credit_size: u32,
+}
+
+/// The hello a controller with the default settings sends (built with the
+/// host's `FW_*` settings, no `$` setting changed): the controller crate's
+/// own (`DeviceLink::hello`).
+pub fn expected_hello() -> Option<Hello> {
+    static LATCH: Latch = Latch::new();
+    let plan = Box::new(Plan::new(MOTION_CONFIG).ok()?);
+    match DeviceLink::new(&LATCH, Config::DEFAULT, StoreResult::Empty).hello(&plan) {
+        DeviceMsg::Hello {
+            tick_hz,
+            accel_mm_per_s2,
+            feed_max_mm_per_min,
+            planner_points,
+            ..
+        } => Some(Hello {
+            tick_hz,
+            accel_mm_per_s2,
+            feed_max_mm_per_min,
+            planner_points,
+        }),
+        _ => None,
+    }
+}
+
+/// How a controller's settings differ from the host's, one line each.
+pub fn settings_differences(got: &Hello, want: &Hello) -> Vec<String> {
+    let mut d = Vec::new();
+    let mut cmp = |what: &str, g: u32, w: u32, unit: &str| {
+        if g != w {
+            d.push(format!("{what}: controller {g} {unit}, host {w} {unit}"));
+        }
+    };
+    cmp("tick rate", got.tick_hz, want.tick_hz, "Hz");
+    cmp(
+        "planner points",
+        got.planner_points as u32,
+        want.planner_points as u32,
+        "points",
+    );
+    cmp(
+        "feed maximum",
+        got.feed_max_mm_per_min,
+        want.feed_max_mm_per_min,
+        "mm/min",
+    );
+    cmp(
+        "tangential acceleration",
+        got.accel_mm_per_s2,
+        want.accel_mm_per_s2,
+        "mm/s²",
+    );
+    d
+}
+
+/// Path commands the controller holds in its queue (not yet scheduled),
+/// from its status and the credit of an empty queue.
+pub fn queued(s: &Status, credit_size: u32) -> u32 {
+    credit_size.saturating_sub(s.window_end.wrapping_sub(s.next_seq))
+}
+
+/// Whether a controller is at rest with nothing to do: idle (the planner
+/// done: it keeps the points the tool rests on), nothing in its queue or
+/// its scheduler's lookahead.
+pub fn at_rest(s: &Status, credit_size: u32) -> bool {
+    s.motion == Motion::Idle && s.points_held == 0 && queued(s, credit_size) == 0
+}
+
+/// Whether a controller is in the middle of a path.
+pub fn busy(s: &Status, credit_size: u32) -> bool {
+    !at_rest(s, credit_size)
+}
+
+/// What a run did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Summary {
+    /// Since streaming started.
+    pub elapsed: Duration,
+    /// The controller's last status.
+    pub last_status: Option<Status>,
+    /// Points the controller reported scheduled.
+    pub scheduled: u32,
+    /// Of those, how many differ from the host's schedule (index or feed
+    /// bits).
+    pub feed_mismatches: u32,
+    /// The first few mismatches: (point index, controller feed, host
+    /// feed), mm/min.
+    pub mismatch_examples: Vec<(usize, f64, f64)>,
+    /// Whether the tool ended exactly on the path's last point.
+    pub ended_on_last_point: bool,
+    /// Go-backs of the link client.
+    pub resends: u32,
+    /// Refusals the controller reported (line noise, credit, sequence).
+    pub refusals: u32,
+    /// The controller's stop report, when a stop ended the run.
+    pub aborted: Option<DeviceMsg>,
+}
+
+/// How a run ended.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Outcome {
+    /// The exit code.
+    pub exit: Exit,
+    /// What to tell the user.
+    pub message: String,
+    /// What it did.
+    pub summary: Summary,
+}
+
+/// Largest number of messages handled before looking at actions again.
+const DRAIN_MAX: usize = 512;
+/// A hold, resume or override not reflected by the status this long after
+/// it was sent is sent again.
+const RESEND_CONTROL: Duration = Duration::from_secs(1);
+/// A stop not confirmed this long after it was sent is sent again.
+const RESEND_STOP: Duration = Duration::from_secs(2);
+/// A finished path whose tool rests off its last point counts as done
+/// after this long (with a warning).
+const SETTLE: Duration = Duration::from_secs(2);
+
+/// A session with one controller.
+pub struct Session {
+    conn: Connection,
+    rec: Recorder,
+    t0: Instant,
+    last_rx: Instant,
+    raw_hello: Option<DeviceMsg>,
+}
+
+impl Session {
+    /// Over the two halves of a byte stream.
+    pub fn new(writer: Box<dyn Write + Send>, reader: Box<dyn Read + Send>, rec: Recorder) -> Self {
+        Session {
+            conn: Connection::new(writer, reader),
+            rec,
+            t0: Instant::now(),
+            last_rx: Instant::now(),
+            raw_hello: None,
+        }
+    }
+
+    /// The link client (sequence numbers, credit).
+    pub fn connection(&self) -> &Connection {
+        &self.conn
+    }
+
+    /// Flush the record; its first write error, if any.
+    pub fn finish_record(&mut self) -> std::io::Result<()> {
+        self.rec.finish()
+    }
+
+    fn t_s(&self) -> f64 {
+        self.t0.elapsed().as_secs_f64()
+    }
+
+    fn recv(&mut self, timeout: Duration) -> Result<Option<DeviceMsg>, Failure> {
+        let m = self.conn.recv(timeout).map_err(|e| {
+            Failure::new(
+                Exit::LinkLost,
+                format!("{e}: the controller or its link went away"),
+            )
+        })?;
+        if let Some(m) = &m {
+            self.last_rx = Instant::now();
+            let t = self.t_s();
+            self.rec.received(t, m);
+            if matches!(m, DeviceMsg::Hello { .. }) {
+                self.raw_hello = Some(*m);
+            }
+        }
+        Ok(m)
+    }
+
+    fn send(&mut self, m: &HostMsg) -> Result<(), Failure> {
+        let t = self.t_s();
+        if !matches!(m, HostMsg::StatusQuery) {
+            self.rec.sent(t, m);
+        }
+        self.conn
+            .send(m)
+            .map_err(|e| Failure::new(Exit::LinkLost, e.to_string()))
+    }
+
+    /// Ask for the status until one comes within `timeout` (every
+    /// 500 ms); other messages go to `seen`.
+    pub fn status_within(
+        &mut self,
+        timeout: Duration,
+        mut seen: impl FnMut(&DeviceMsg),
+    ) -> Result<Status, Failure> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            self.send(&HostMsg::StatusQuery)?;
+            let ask_again = Instant::now() + Duration::from_millis(500);
+            while let Some(left) = ask_again.checked_duration_since(Instant::now()) {
+                match self.recv(left.min(Duration::from_millis(50)))? {
+                    Some(DeviceMsg::Status(s)) => return Ok(s),
+                    Some(m) => seen(&m),
+                    None => {}
+                }
+            }
+            if Instant::now() >= deadline {
+                return Err(Failure::new(
+                    Exit::LinkLost,
+                    format!(
+                        "no answer from the controller within {:.1} s (is it powered and running the firmware; are the port and baud rate right?)",
+                        timeout.as_secs_f64()
+                    ),
+                ));
+            }
+        }
+    }
+
+    /// Connect to the controller: its hello if it just reset, its status,
+    /// the link client resynchronised to its sequence, its settings
+    /// checked against the host's.
+    pub fn handshake(&mut self, opts: &Options) -> Result<Handshake, Failure> {
+        let deadline = Instant::now() + opts.hello_wait;
+        while let Some(left) = deadline.checked_duration_since(Instant::now()) {
+            if let Some(DeviceMsg::Hello { .. }) = self.recv(left)? {
+                break;
+            }
+        }
+        let status = self.status_within(opts.link_timeout, |_| {})?;
+        // A board that resets when its port opens may say hello late.
+        let hello = self.conn.client().hello();
+        // Whether it just reset or was running: continue its sequence.
+        self.conn.client_mut().resync(&status);
+        let credit_size = match self.raw_hello {
+            Some(DeviceMsg::Hello { window_end, .. }) if hello.is_some() => window_end,
+            _ => CMD_CREDIT,
+        };
+        let settings = match (hello, expected_hello()) {
+            (Some(h), Some(want)) => {
+                let d = settings_differences(&h, &want);
+                if d.is_empty() {
+                    SettingsCheck::Matched
+                } else if opts.check_settings {
+                    return Err(Failure::new(
+                        Exit::Controller,
+                        format!(
+                            "the controller's settings differ from the host's ({}); the firmware and the sender must be built with the same FW_* settings and the controller's $ settings left at their defaults, or pass --no-check",
+                            d.join("; ")
+                        ),
+                    ));
+                } else {
+                    SettingsCheck::Differ(d)
+                }
+            }
+            _ => SettingsCheck::Unchecked,
+        };
+        Ok(Handshake {
+            hello,
+            status,
+            settings,
+            credit_size,
+        })
+    }
+
+    /// A controlled stop of whatever the controller runs: abort, wait for
+    /// its report.
+    pub fn stop(&mut self, opts: &Options) -> Result<DeviceMsg, Failure> {
+        let s = self.status_within(opts.link_timeout, |_| {})?;
+        self.conn.client_mut().resync(&s);
+        let msg = self.conn.client_mut().abort();
+        self.send(&msg)?;
+        let deadline = Instant::now() + opts.stop_timeout;
+        let mut resend = Instant::now() + RESEND_STOP;
+        loop {
+            if let Some(a) = self.conn.client().aborted() {
+                return Ok(a);
+            }
+            let now = Instant::now();
+            if now > deadline {
+                return Err(Failure::new(
+                    Exit::LinkLost,
+                    "the controller did not confirm the stop",
+                ));
+            }
+            if now > resend {
+                self.send(&msg)?;
+                resend = now + RESEND_STOP;
+            }
+            self.recv(Duration::from_millis(50))?;
+        }
+    }
+
+    /// Stream `program` to the controller after [`Session::handshake`],
+    /// until it is done, stopped, refused or the link is lost.
+    pub fn run(
+        &mut self,
+        program: &Program,
+        hs: &Handshake,
+        opts: &Options,
+        actions: &mut dyn Actions,
+        display: &mut dyn Display,
+    ) -> Outcome {
+        let mut run = Run::new(program, hs, opts);
+        let r = run.go(self, actions, display);
+        let mut summary = run.summary;
+        summary.elapsed = run.t_start.elapsed();
+        summary.last_status = self.conn.client().last_status();
+        summary.resends = self.conn.client().resends();
+        match r {
+            Ok((exit, message)) => Outcome {
+                exit,
+                message,
+                summary,
+            },
+            Err(f) => Outcome {
+                exit: f.exit,
+                message: f.message,
+                summary,
+            },
+        }
+    }
+}
+
+/// The state of one run.
+struct Run<'a> {
+    program: &'a Program,
+    opts: &'a Options,
+    credit_size: u32,
+    /// Host schedule by point index: (index in the path, feed bits).
+    host: Vec<Option<(u32, i64)>>,
+    eta: Eta,
+    operator: Operator,
+    status0: Status,
+    stale_reached: u32,
+    started: bool,
+    end_planned: bool,
+    rest_since: Option<Instant>,
+    first_point_seq: u32,
+    end_seq: u32,
+    start_seq: u32,
+    t_start: Instant,
+    summary: Summary,
+}
+
+impl<'a> Run<'a> {
+    fn new(program: &'a Program, hs: &Handshake, opts: &'a Options) -> Self {
+        let feed_max = hs.hello.map_or(crate::program::machine_feed_max(), |h| {
+            h.feed_max_mm_per_min as f64
+        });
+        let host = program.host_schedule(opts.config);
+        let feeds: Vec<Option<i64>> = host.iter().map(|h| h.map(|x| x.1)).collect();
+        let eta = Eta::new(program.cum_time_s(&feeds, feed_max));
+        Run {
+            program,
+            opts,
+            credit_size: hs.credit_size,
+            host,
+            eta,
+            operator: Operator::new(opts.initial_override.unwrap_or(hs.status.override_percent)),
+            status0: hs.status,
+            stale_reached: hs.status.point_reached,
+            started: hs.status.point_reached == 0,
+            end_planned: false,
+            rest_since: None,
+            first_point_seq: 0,
+            end_seq: 0,
+            start_seq: 0,
+            t_start: Instant::now(),
+            summary: Summary::default(),
+        }
+    }
+
+    /// Points of our path reached, once the controller is on it.
+    fn reached(&self, s: &Status) -> Option<u32> {
+        self.started
+            .then_some(s.point_reached.min(self.program.len() as u32))
+    }
+
+    /// The index of the program's point with sequence number `seq`.
+    fn point_index(&self, seq: u32) -> Option<usize> {
+        let i = seq.wrapping_sub(self.first_point_seq) as usize;
+        (i < self.program.len()).then_some(i)
+    }
+
+    fn ours(&self, seq: u32) -> bool {
+        seq.wrapping_sub(self.start_seq) <= self.end_seq.wrapping_sub(self.start_seq)
+    }
+
+    fn describe_seq(&self, seq: u32) -> String {
+        if seq == self.start_seq {
+            "the path's start (F_max/F_min)".into()
+        } else if seq == self.end_seq {
+            "the path's end".into()
+        } else if let Some(i) = self.point_index(seq) {
+            match self.program.line_of(i) {
+                Some(l) => format!("point {} (input line {l})", i + 1),
+                None => format!("point {}", i + 1),
+            }
+        } else {
+            format!("sequence number {seq}")
+        }
+    }
+
+    fn view(&self, s: &Session, stopping: bool) -> View {
+        let c = s.conn.client();
+        let st = c.last_status().unwrap_or_default();
+        let reached = self.reached(&st);
+        let r = reached.unwrap_or(0);
+        View {
+            status: st,
+            queued: queued(&st, self.credit_size),
+            credit: (c.window_end().wrapping_sub(c.send_next()) as i32).max(0) as u32,
+            reached,
+            points: self.program.len() as u32,
+            done_mm: match r {
+                0 => 0.0,
+                r => self.program.length_to_mm(r as usize - 1),
+            },
+            total_mm: self.program.length_mm(),
+            eta: reached.map(|r| self.eta.left(r, st.override_percent.max(1))),
+            elapsed: self.t_start.elapsed(),
+            hold_asked: self.operator.hold,
+            stopping,
+        }
+    }
+
+    fn go(
+        &mut self,
+        s: &mut Session,
+        actions: &mut dyn Actions,
+        display: &mut dyn Display,
+    ) -> Result<(Exit, String), Failure> {
+        let cfg = self.opts.config;
+        let (f_max, f_min) = (cfg.f_max.0.to_bits(), cfg.f_min.0.to_bits());
+        if busy(&self.status0, self.credit_size) {
+            let st = &self.status0;
+            return Err(Failure::new(
+                Exit::Controller,
+                format!(
+                    "the controller is busy with a path (state {}, {} points planned, {} held, {} commands queued): let it finish, or stop it with `fuzzy-send stop`",
+                    crate::view::state_name(st.motion),
+                    st.planned_points,
+                    st.points_held,
+                    queued(st, self.credit_size)
+                ),
+            ));
+        }
+        s.send(&HostMsg::Reports {
+            planner: self.opts.reports,
+        })?;
+        if self.opts.initial_override.is_some() {
+            s.send(&HostMsg::Override {
+                percent: self.operator.override_percent,
+            })?;
+        }
+        let c = s.conn.client_mut();
+        self.start_seq = c.start_path(f_max, f_min);
+        self.first_point_seq = self.start_seq.wrapping_add(1);
+        let t = s.t_s();
+        s.rec
+            .path(t, self.start_seq, f_max, f_min, self.program.len());
+        for (i, p) in self.program.points.iter().enumerate() {
+            let bits = p.pos.to_bits();
+            let cap = p.feed_cap.map(|f| f.0.to_bits());
+            let seq = s.conn.client_mut().point(bits, cap);
+            s.rec.point(
+                seq,
+                bits,
+                cap,
+                self.program.lines.get(i).copied().unwrap_or(0),
+            );
+        }
+        self.end_seq = s.conn.client_mut().end_path();
+        self.t_start = Instant::now();
+
+        let mut next_status = Instant::now();
+        let mut last_acked = s.conn.client().acked();
+        let mut ack_progress = Instant::now();
+        let mut silence_pending = false;
+        let mut stopping: Option<(HostMsg, StopKind, Instant, Instant)> = None;
+        let mut control_sent = Instant::now();
+        loop {
+            let now = Instant::now();
+            let elapsed = self.t_start.elapsed();
+            // Operator actions.
+            let st = s.conn.client().last_status().unwrap_or_default();
+            let reached = self.reached(&st).unwrap_or(0);
+            for a in actions.poll(elapsed, reached) {
+                match self.operator.apply(a) {
+                    Effect::Send(m) => {
+                        s.send(&m)?;
+                        control_sent = Instant::now();
+                    }
+                    Effect::Stop(kind) => {
+                        let m = s.conn.client_mut().abort();
+                        s.send(&m)?;
+                        display.note(match kind {
+                            StopKind::Stop => "stopping: the motion stops on the path, the rest of the program is dropped",
+                            StopKind::EStop => "e-stop asked for: the protocol has no emergency stop yet, so this is the same controlled stop (the motion stops on the path under control)",
+                        });
+                        stopping = Some((m, kind, Instant::now(), Instant::now()));
+                    }
+                    Effect::Leave => {
+                        return Ok((
+                            Exit::UserStop,
+                            "left before the controller confirmed the stop (it stops on its own)"
+                                .into(),
+                        ))
+                    }
+                    Effect::None => {}
+                }
+            }
+            if stopping.is_none() {
+                s.conn.transmit().map_err(Failure::from)?;
+            }
+            // Messages from the controller.
+            let mut wait = Duration::from_millis(5);
+            for _ in 0..DRAIN_MAX {
+                let Some(m) = s.recv(wait)? else { break };
+                wait = Duration::ZERO;
+                if let Some(done) = self.on_message(&m, stopping.map(|x| x.1))? {
+                    return Ok(done);
+                }
+                if let DeviceMsg::Status(st) = m {
+                    if silence_pending {
+                        s.conn.client_mut().on_silence(&st);
+                        silence_pending = false;
+                        ack_progress = Instant::now();
+                    }
+                    if stopping.is_none() {
+                        if let Some(d) = self.check_done(s, &st) {
+                            return Ok(d);
+                        }
+                        self.reconcile(s, &st, &mut control_sent)?;
+                    }
+                }
+            }
+            // Sent and not acknowledged for a while: resend from where the
+            // controller is, after its status.
+            let c = s.conn.client();
+            if c.acked() != last_acked {
+                last_acked = c.acked();
+                ack_progress = now;
+            }
+            let in_flight = c.send_next().wrapping_sub(c.acked()) as i32 > 0;
+            if in_flight && ack_progress.elapsed() > SILENCE && !silence_pending {
+                silence_pending = true;
+                s.send(&HostMsg::StatusQuery)?;
+                next_status = Instant::now() + self.opts.status_period;
+            }
+            if Instant::now() >= next_status {
+                s.send(&HostMsg::StatusQuery)?;
+                next_status = Instant::now() + self.opts.status_period;
+            }
+            if s.last_rx.elapsed() > self.opts.link_timeout {
+                return Err(Failure::new(
+                    Exit::LinkLost,
+                    format!(
+                        "no answer from the controller for {:.1} s",
+                        self.opts.link_timeout.as_secs_f64()
+                    ),
+                ));
+            }
+            if let Some((m, _, since, last)) = stopping.as_mut() {
+                if since.elapsed() > self.opts.stop_timeout {
+                    return Err(Failure::new(
+                        Exit::LinkLost,
+                        format!(
+                            "the controller did not confirm the stop within {:.0} s",
+                            self.opts.stop_timeout.as_secs_f64()
+                        ),
+                    ));
+                }
+                if last.elapsed() > RESEND_STOP {
+                    *last = Instant::now();
+                    let m = *m;
+                    s.send(&m)?;
+                }
+            }
+            display.show(&self.view(s, stopping.is_some()));
+        }
+    }
+
+    /// One message; `Some` when it ends the run.
+    fn on_message(
+        &mut self,
+        m: &DeviceMsg,
+        stopping: Option<StopKind>,
+    ) -> Result<Option<(Exit, String)>, Failure> {
+        match *m {
+            DeviceMsg::Scheduled {
+                seq,
+                index,
+                feed_mm_per_min,
+                ..
+            } => {
+                if let Some(i) = self.point_index(seq) {
+                    self.started = true;
+                    self.summary.scheduled += 1;
+                    let host = self.host.get(i).copied().flatten();
+                    if host != Some((index, feed_mm_per_min)) {
+                        self.summary.feed_mismatches += 1;
+                        if self.summary.mismatch_examples.len() < 5 {
+                            self.summary.mismatch_examples.push((
+                                i,
+                                bits_f64(feed_mm_per_min),
+                                host.map_or(f64::NAN, |h| bits_f64(h.1)),
+                            ));
+                        }
+                    }
+                }
+            }
+            DeviceMsg::Planned {
+                event: PlanEvent::EndPath,
+                ..
+            } if self.started => self.end_planned = true,
+            DeviceMsg::Status(st) => {
+                if st.point_reached != self.stale_reached {
+                    self.started = true;
+                }
+                let counts = matches!(st.motion, Motion::Running | Motion::Starved);
+                let t = self.t_start.elapsed().as_secs_f64();
+                let r = self.reached(&st).unwrap_or(0);
+                self.eta.update(t, r, st.override_percent, counts);
+            }
+            DeviceMsg::Error { code, expected_seq } => {
+                self.summary.refusals += 1;
+                if matches!(code, ErrorCode::OutOfRange | ErrorCode::Rejected)
+                    && self.ours(expected_seq)
+                    && stopping.is_none()
+                {
+                    return Err(Failure::new(
+                        Exit::Controller,
+                        format!(
+                            "the controller refused {} ({code:?})",
+                            self.describe_seq(expected_seq)
+                        ),
+                    ));
+                }
+            }
+            DeviceMsg::Aborted { pos_mm, .. } => {
+                self.summary.aborted = Some(*m);
+                let [x, y, z] = pos_mm.map(bits_f64);
+                let what = format!(
+                    "stopped at X{x:.3} Y{y:.3} Z{z:.3}; the rest of the program was dropped"
+                );
+                return Ok(Some(match stopping {
+                    Some(StopKind::Stop) => {
+                        (Exit::UserStop, format!("stopped by the user: {what}"))
+                    }
+                    Some(StopKind::EStop) => (
+                        Exit::UserStop,
+                        format!("e-stop (sent as a controlled stop): {what}"),
+                    ),
+                    None => (
+                        Exit::Controller,
+                        format!("the controller aborted the path: {what}"),
+                    ),
+                }));
+            }
+            DeviceMsg::Hello { .. } => {
+                return Err(Failure::new(
+                    Exit::Controller,
+                    "the controller reset during the run (its hello came again): the path is lost",
+                ))
+            }
+            _ => {}
+        }
+        Ok(None)
+    }
+
+    /// Whether the status says the path is done: every command
+    /// acknowledged and taken from the queue, the scheduler's lookahead
+    /// empty (so every point went to the planner, whose point count is
+    /// now this path's), the planner past the last point, the tool at
+    /// rest on it; with reports on, the planner also reported the path's
+    /// end. (A tool at rest that is not on the last point is accepted
+    /// after [`SETTLE`], with a warning in the summary.)
+    fn check_done(&mut self, s: &Session, st: &Status) -> Option<(Exit, String)> {
+        let c = s.conn.client();
+        let last = self.program.points.last().map(|p| p.pos.to_bits());
+        let on_last = last == Some(st.pos_mm);
+        let drained = c.all_acked() && queued(st, self.credit_size) == 0 && st.points_held == 0;
+        if drained {
+            self.started = true;
+        }
+        let rest = drained
+            && st.motion == Motion::Idle
+            && st.point_reached as usize >= self.program.len()
+            && (self.end_planned || !self.opts.reports);
+        if !rest {
+            self.rest_since = None;
+            return None;
+        }
+        let since = *self.rest_since.get_or_insert_with(Instant::now);
+        if !on_last && since.elapsed() < SETTLE {
+            return None;
+        }
+        self.summary.ended_on_last_point = on_last;
+        let [x, y, z] = st.pos_mm.map(bits_f64);
+        Some((
+            Exit::Done,
+            format!(
+                "done: {} points, {:.1} mm in {:.1} s; ended at X{x:.3} Y{y:.3} Z{z:.3}",
+                self.program.len(),
+                self.program.length_mm(),
+                self.t_start.elapsed().as_secs_f64()
+            ),
+        ))
+    }
+
+    /// Send a hold, resume or override again if the controller's status
+    /// does not show it a while after it was sent (a lost frame).
+    fn reconcile(
+        &mut self,
+        s: &mut Session,
+        st: &Status,
+        sent: &mut Instant,
+    ) -> Result<(), Failure> {
+        if sent.elapsed() < RESEND_CONTROL {
+            return Ok(());
+        }
+        let o = self.operator;
+        let m = if st.override_percent != o.override_percent {
+            Some(HostMsg::Override {
+                percent: o.override_percent,
+            })
+        } else if o.hold && st.motion == Motion::Running {
+            Some(HostMsg::Hold)
+        } else if !o.hold && st.motion == Motion::Held {
+            Some(HostMsg::Resume)
+        } else {
+            None
+        };
+        if let Some(m) = m {
+            s.send(&m)?;
+            *sent = Instant::now();
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use host_sim::config::SimConfig;
+
+    fn program() -> Program {
+        crate::program::load("trident", &SimConfig::default()).unwrap()
+    }
+
+    fn handshake(status: Status) -> Handshake {
+        Handshake {
+            hello: None,
+            status,
+            settings: SettingsCheck::Unchecked,
+            credit_size: CMD_CREDIT,
+        }
+    }
+
+    /// A run whose path starts at sequence number 10.
+    fn run<'a>(p: &'a Program, o: &'a Options) -> Run<'a> {
+        let mut r = Run::new(p, &handshake(Status::default()), o);
+        r.start_seq = 10;
+        r.first_point_seq = 11;
+        r.end_seq = 11 + p.len() as u32;
+        r
+    }
+
+    #[test]
+    fn how_messages_end_a_run() {
+        let p = program();
+        let o = Options::new(crate::program::scheduler_config(5000.0, 60.0).unwrap());
+        let mut r = run(&p, &o);
+        let refused = |code, expected_seq| DeviceMsg::Error { code, expected_seq };
+        // Line noise and credit refusals are the link client's business.
+        for code in [
+            ErrorCode::Crc,
+            ErrorCode::OutOfSequence,
+            ErrorCode::NoCredit,
+        ] {
+            assert_eq!(r.on_message(&refused(code, 12), None), Ok(None));
+        }
+        // A refused point of ours ends the run, naming the point.
+        let e = r
+            .on_message(&refused(ErrorCode::OutOfRange, 12), None)
+            .unwrap_err();
+        assert_eq!(e.exit, Exit::Controller);
+        assert!(e.message.contains("point 2"), "{e}");
+        assert!(r
+            .on_message(&refused(ErrorCode::Rejected, 10), None)
+            .unwrap_err()
+            .message
+            .contains("start"));
+        // Not ours (another path's sequence numbers): not a reason.
+        assert_eq!(
+            r.on_message(&refused(ErrorCode::OutOfRange, 3), None),
+            Ok(None)
+        );
+        // A stop report: the user's stop, or the controller's own abort.
+        let aborted = DeviceMsg::Aborted {
+            commands: 1,
+            points: 2,
+            pos_mm: [1 << 32, 0, 0],
+        };
+        let (exit, msg) = r
+            .on_message(&aborted, Some(StopKind::Stop))
+            .unwrap()
+            .unwrap();
+        assert_eq!(exit, Exit::UserStop);
+        assert!(msg.contains("X1.000"), "{msg}");
+        let (exit, msg) = r
+            .on_message(&aborted, Some(StopKind::EStop))
+            .unwrap()
+            .unwrap();
+        assert_eq!(exit, Exit::UserStop);
+        assert!(msg.contains("controlled stop"), "{msg}");
+        let (exit, _) = r.on_message(&aborted, None).unwrap().unwrap();
+        assert_eq!(exit, Exit::Controller);
+        // A hello during the run: the controller reset.
+        let hello = DeviceMsg::Hello {
+            tick_hz: 1000,
+            accel_mm_per_s2: 1000,
+            window_end: 12,
+            feed_max_mm_per_min: 5000,
+            planner_points: 112,
+        };
+        assert_eq!(
+            r.on_message(&hello, None).unwrap_err().exit,
+            Exit::Controller
+        );
+    }
+
+    #[test]
+    fn reported_feeds_are_checked_against_the_hosts_schedule() {
+        let p = program();
+        let o = Options::new(crate::program::scheduler_config(3000.0, 60.0).unwrap());
+        let mut r = run(&p, &o);
+        let (index, feed) = r.host[5].unwrap();
+        let sched = |feed_mm_per_min| DeviceMsg::Scheduled {
+            seq: 16,
+            index,
+            feed_mm_per_min,
+            tick: 0,
+        };
+        r.on_message(&sched(feed), None).unwrap();
+        assert_eq!((r.summary.scheduled, r.summary.feed_mismatches), (1, 0));
+        assert!(
+            r.started,
+            "a report of our point: the controller is on our path"
+        );
+        r.on_message(&sched(feed + 1), None).unwrap();
+        assert_eq!((r.summary.scheduled, r.summary.feed_mismatches), (2, 1));
+        assert_eq!(r.summary.mismatch_examples[0].0, 5);
+    }
+
+    #[test]
+    fn progress_waits_for_the_controller_to_leave_the_previous_path() {
+        let p = program();
+        let o = Options::new(crate::program::scheduler_config(3000.0, 60.0).unwrap());
+        let old = Status {
+            point_reached: 138,
+            ..Status::default()
+        };
+        let mut r = Run::new(&p, &handshake(old), &o);
+        assert_eq!(r.reached(&old), None, "still the previous path's count");
+        r.on_message(&DeviceMsg::Status(old), None).unwrap();
+        assert_eq!(r.reached(&old), None);
+        let new = Status {
+            point_reached: 3,
+            ..old
+        };
+        r.on_message(&DeviceMsg::Status(new), None).unwrap();
+        assert_eq!(r.reached(&new), Some(3));
+        let fresh = Run::new(&p, &handshake(Status::default()), &o);
+        assert_eq!(fresh.reached(&Status::default()), Some(0));
+    }
+
+    #[test]
+    fn the_expected_hello_is_the_controllers_own() {
+        let h = expected_hello().unwrap();
+        assert_eq!(h.tick_hz, controller::settings::TICK_HZ);
+        assert_eq!(
+            h.planner_points as usize,
+            controller::settings::PLANNER_POINTS
+        );
+        assert_eq!(
+            h.feed_max_mm_per_min,
+            controller::settings::FEED_MAX_MM_PER_MIN
+        );
+        assert!(settings_differences(&h, &h).is_empty());
+        let other = Hello {
+            tick_hz: 2000,
+            planner_points: 64,
+            ..h
+        };
+        let d = settings_differences(&other, &h);
+        assert_eq!(d.len(), 2, "{d:?}");
+        assert!(d[0].contains("tick rate: controller 2000 Hz"), "{d:?}");
+    }
+
+    #[test]
+    fn queue_and_busy_come_from_the_status() {
+        let idle = Status {
+            next_seq: 100,
+            window_end: 112,
+            ..Status::default()
+        };
+        assert_eq!(queued(&idle, 12), 0);
+        assert!(!busy(&idle, 12));
+        let resting = Status {
+            planned_points: 2,
+            ..idle
+        };
+        assert!(!busy(&resting, 12), "the points the tool rests on");
+        assert!(busy(
+            &Status {
+                motion: Motion::Starved,
+                ..idle
+            },
+            12
+        ));
+        let q = Status {
+            window_end: 105,
+            ..idle
+        };
+        assert_eq!(queued(&q, 12), 7);
+        assert!(busy(&q, 12));
+        let held = Status {
+            points_held: 3,
+            ..idle
+        };
+        assert!(busy(&held, 12));
+        let wrap = Status {
+            next_seq: u32::MAX - 1,
+            window_end: 10,
+            ..idle
+        };
+        assert_eq!(queued(&wrap, 12), 0);
+    }
+}

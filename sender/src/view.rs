@@ -1,0 +1,278 @@
+//! What the operator sees: the live status line (state, position, feed,
+//! override, buffer levels, progress, ETA) and the ETA estimate.
+
+use std::fmt::Write as _;
+use std::time::Duration;
+
+use link::{Motion, Status};
+
+/// I32F32 bits to f64.
+pub fn bits_f64(b: i64) -> f64 {
+    b as f64 / 4294967296.0
+}
+
+/// One look at the run, for the status line.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct View {
+    /// The controller's last status.
+    pub status: Status,
+    /// Path commands the controller has queued (not yet scheduled).
+    pub queued: u32,
+    /// Commands the host may still send within the credit.
+    pub credit: u32,
+    /// Points of the program reached (from 1), `None` before the
+    /// controller started on it.
+    pub reached: Option<u32>,
+    /// Points in the program.
+    pub points: u32,
+    /// Path length reached and in all, mm.
+    pub done_mm: f64,
+    /// Path length in all, mm.
+    pub total_mm: f64,
+    /// Estimated time left.
+    pub eta: Option<Duration>,
+    /// Since streaming started.
+    pub elapsed: Duration,
+    /// A feed hold is asked for (the controller may still be stopping).
+    pub hold_asked: bool,
+    /// A stop is under way.
+    pub stopping: bool,
+}
+
+/// The motion state as shown.
+pub fn state_name(m: Motion) -> &'static str {
+    match m {
+        Motion::Idle => "Idle",
+        Motion::Running => "Run",
+        Motion::Held => "Hold",
+        Motion::Starved => "Starved",
+        Motion::Alarm => "Alarm",
+        Motion::Homing => "Home",
+    }
+}
+
+/// `m:ss` (or `h:mm:ss`).
+pub fn clock(d: Duration) -> String {
+    let s = d.as_secs();
+    if s >= 3600 {
+        format!("{}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
+    } else {
+        format!("{}:{:02}", s / 60, s % 60)
+    }
+}
+
+impl View {
+    /// Fraction of the path done (by length), 0..=1.
+    pub fn fraction(&self) -> f64 {
+        if self.total_mm > 0.0 {
+            (self.done_mm / self.total_mm).clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
+    }
+
+    /// The status line: state, position, feed, override, buffer levels,
+    /// progress, ETA.
+    pub fn line(&self) -> String {
+        let s = &self.status;
+        let [x, y, z] = s.pos_mm.map(bits_f64);
+        let mut state = state_name(s.motion).to_string();
+        if self.stopping {
+            state = "Stop".into();
+        } else if self.hold_asked && s.motion != Motion::Held {
+            state.push('>');
+            state.push_str("Hold");
+        }
+        let mut out = format!(
+            "{state:<8} X{x:9.3} Y{y:9.3} Z{z:8.3}  F{:6.0}  ovr {:3}%  plan {:3} held {:2} queue {:2} credit {:2}",
+            bits_f64(s.feed_mm_per_min),
+            s.override_percent,
+            s.planned_points,
+            s.points_held,
+            self.queued,
+            self.credit,
+        );
+        match self.reached {
+            Some(r) => {
+                let _ = write!(out, "  pt {r}/{}", self.points);
+            }
+            None => {
+                let _ = write!(out, "  pt -/{}", self.points);
+            }
+        }
+        match self.eta {
+            Some(e) => {
+                let _ = write!(out, "  ETA {}", clock(e));
+            }
+            None => out.push_str("  ETA -"),
+        }
+        out
+    }
+
+    /// A log line for unattended runs: elapsed time, progress, the status
+    /// line.
+    pub fn log_line(&self) -> String {
+        format!(
+            "[{:>7.1} s] {:5.1} %  {}",
+            self.elapsed.as_secs_f64(),
+            self.fraction() * 100.0,
+            self.line()
+        )
+    }
+}
+
+/// The time left, from the host's schedule: the remaining blocks at their
+/// scheduled feeds (capped to the machine's), divided by the override,
+/// times how much slower than that estimate the run has been so far (the
+/// estimate has no acceleration; the factor learns it).
+#[derive(Clone, Debug)]
+pub struct Eta {
+    /// Cumulative time to each point index at 100 % (see
+    /// `Program::cum_time_s`), s.
+    cum_s: Vec<f64>,
+    /// The estimate for what was done, at the overrides in force, s.
+    est_done_s: f64,
+    /// The time it took (moving or starved, not held), s.
+    actual_s: f64,
+    last: Option<(f64, u32)>,
+}
+
+/// Estimated seconds of progress needed before the run's own pace is
+/// trusted.
+const LEARN_AFTER_S: f64 = 0.5;
+
+impl Eta {
+    /// For a program with these cumulative block times.
+    pub fn new(cum_s: Vec<f64>) -> Self {
+        Eta {
+            cum_s,
+            est_done_s: 0.0,
+            actual_s: 0.0,
+            last: None,
+        }
+    }
+
+    fn at(&self, reached: u32) -> f64 {
+        // Point `reached` (from 1) is index `reached - 1`.
+        match (reached as usize).checked_sub(1) {
+            None => 0.0,
+            Some(i) => self
+                .cum_s
+                .get(i)
+                .or(self.cum_s.last())
+                .copied()
+                .unwrap_or(0.0),
+        }
+    }
+
+    /// A status at `t_s` (s since the start): `reached` points done, with
+    /// this override, moving or not (held).
+    pub fn update(&mut self, t_s: f64, reached: u32, override_percent: u16, counts: bool) {
+        if let Some((t0, r0)) = self.last {
+            if counts {
+                let pct = override_percent.max(1) as f64 / 100.0;
+                self.est_done_s += (self.at(reached) - self.at(r0)).max(0.0) / pct;
+                self.actual_s += (t_s - t0).max(0.0);
+            }
+        }
+        self.last = Some((t_s, reached));
+    }
+
+    /// How much slower than the estimate the run is.
+    pub fn pace(&self) -> f64 {
+        if self.est_done_s < LEARN_AFTER_S {
+            1.0
+        } else {
+            (self.actual_s / self.est_done_s).clamp(1.0, 50.0)
+        }
+    }
+
+    /// Time left with `reached` points done at this override.
+    pub fn left(&self, reached: u32, override_percent: u16) -> Duration {
+        let total = self.cum_s.last().copied().unwrap_or(0.0);
+        let rest = (total - self.at(reached)).max(0.0);
+        let pct = override_percent.max(1) as f64 / 100.0;
+        Duration::from_secs_f64((rest / pct * self.pace()).min(1e7))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_line_shows_state_position_feed_buffers_and_eta() {
+        let v = View {
+            status: Status {
+                motion: Motion::Running,
+                pos_mm: [12i64 << 32, -(3i64 << 31), 0],
+                feed_mm_per_min: 2500i64 << 32,
+                override_percent: 80,
+                planned_points: 112,
+                points_held: 35,
+                ..Status::default()
+            },
+            queued: 12,
+            credit: 3,
+            reached: Some(120),
+            points: 2001,
+            done_mm: 10.0,
+            total_mm: 40.0,
+            eta: Some(Duration::from_secs(75)),
+            elapsed: Duration::from_millis(2500),
+            hold_asked: false,
+            stopping: false,
+        };
+        let l = v.line();
+        for want in [
+            "Run",
+            "X   12.000",
+            "Y   -1.500",
+            "F  2500",
+            "ovr  80%",
+            "plan 112",
+            "held 35",
+            "queue 12",
+            "credit  3",
+            "pt 120/2001",
+            "ETA 1:15",
+        ] {
+            assert!(l.contains(want), "{want:?} not in {l:?}");
+        }
+        assert!(
+            v.log_line().starts_with("[    2.5 s]  25.0 %"),
+            "{}",
+            v.log_line()
+        );
+        let held = View {
+            hold_asked: true,
+            reached: None,
+            eta: None,
+            ..v
+        };
+        assert!(held.line().starts_with("Run>Hold"), "{}", held.line());
+        assert!(held.line().contains("pt -/2001") && held.line().ends_with("ETA -"));
+        assert_eq!(clock(Duration::from_secs(3725)), "1:02:05");
+    }
+
+    #[test]
+    fn the_eta_follows_the_override_and_learns_the_pace() {
+        // Ten blocks of 1 s each at 100 %.
+        let mut e = Eta::new((1..=10).map(|i| i as f64).collect());
+        assert_eq!(e.left(0, 100), Duration::from_secs(10));
+        assert_eq!(e.left(5, 100), Duration::from_secs(5));
+        assert_eq!(e.left(5, 50), Duration::from_secs(10));
+        // The run takes twice the estimate: 2 points in 4 s.
+        e.update(0.0, 0, 100, true);
+        e.update(4.0, 2, 100, true);
+        assert!((e.pace() - 2.0).abs() < 1e-9);
+        assert_eq!(e.left(2, 100), Duration::from_secs(16));
+        // A hold does not count.
+        e.update(100.0, 2, 100, false);
+        assert!((e.pace() - 2.0).abs() < 1e-9);
+        // At 200 % the estimate halves: 2 more points in 2 s is the same pace.
+        e.update(102.0, 4, 200, true);
+        assert!((e.pace() - 2.0).abs() < 1e-9, "{}", e.pace());
+        assert_eq!(e.left(10, 100), Duration::ZERO);
+    }
+}

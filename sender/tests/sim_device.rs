@@ -1,0 +1,439 @@
+//! The sender's streaming loop against the whole controller on the host
+//! (`controller::sim::VirtualDevice`, the firmware's own code) through an
+//! in-process byte stream (`sender::sim`): programs run to their end with
+//! the host's feeds bit for bit and the tool on the last point; scripted
+//! hold, resume, override, stop and e-stop; a cut link, a silent link, a
+//! lossy link; a controller already running (resync), a busy one, and
+//! `stop` clearing it.
+
+use std::io::{self, Read, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use host_sim::config::SimConfig;
+use link::{DeviceMsg, HostMsg, Motion, PlanEvent, Status};
+use sender::actions::{Action, Script};
+use sender::exit::Exit;
+use sender::program::{self, Program};
+use sender::record::Recorder;
+use sender::sim::{self, SimHandle};
+use sender::stream::{Actions, NoActions, Options, Outcome, Quiet, Session, SettingsCheck};
+
+fn repo(rel: &str) -> String {
+    format!("{}/../{rel}", env!("CARGO_MANIFEST_DIR"))
+}
+
+fn load(spec: &str) -> Program {
+    program::load(spec, &SimConfig::default()).unwrap()
+}
+
+fn opts() -> Options {
+    let mut o = Options::new(program::scheduler_config(5000.0, 60.0).unwrap());
+    o.status_period = Duration::from_millis(20);
+    o.link_timeout = Duration::from_secs(3);
+    o.hello_wait = Duration::from_millis(300);
+    o.stop_timeout = Duration::from_secs(10);
+    o.reports = true;
+    o
+}
+
+fn temp(name: &str) -> PathBuf {
+    std::env::temp_dir().join(format!("sender-sim-{}-{name}", std::process::id()))
+}
+
+fn session(h: &SimHandle, rec: Recorder) -> Session {
+    let s = h.connect().unwrap();
+    Session::new(Box::new(s.try_clone().unwrap()), Box::new(s), rec)
+}
+
+/// Handshake, then run `p` with `actions`.
+fn run(s: &mut Session, p: &Program, actions: &mut dyn Actions) -> Outcome {
+    let o = opts();
+    let hs = s.handshake(&o).unwrap();
+    s.run(p, &hs, &o, actions, &mut Quiet)
+}
+
+/// Every message from the controller in a record.
+fn received(path: &Path) -> Vec<DeviceMsg> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .filter_map(|l| {
+            let v: serde_json::Value = serde_json::from_str(l).unwrap();
+            v.get("rx")
+                .map(|m| serde_json::from_value(m.clone()).unwrap())
+        })
+        .collect()
+}
+
+fn statuses(msgs: &[DeviceMsg]) -> Vec<Status> {
+    msgs.iter()
+        .filter_map(|m| match m {
+            DeviceMsg::Status(s) => Some(*s),
+            _ => None,
+        })
+        .collect()
+}
+
+fn events(msgs: &[DeviceMsg]) -> Vec<PlanEvent> {
+    msgs.iter()
+        .filter_map(|m| match m {
+            DeviceMsg::Planned { event, .. } => Some(*event),
+            _ => None,
+        })
+        .collect()
+}
+
+fn assert_done(o: &Outcome, p: &Program) {
+    assert_eq!(o.exit, Exit::Done, "{}", o.message);
+    let s = &o.summary;
+    assert_eq!(s.scheduled as usize, p.len(), "every point scheduled");
+    assert_eq!(s.feed_mismatches, 0, "{:?}", s.mismatch_examples);
+    assert!(s.ended_on_last_point, "{:?}", s.last_status);
+}
+
+#[test]
+fn a_gcode_file_and_a_shape_run_to_their_end_exactly() {
+    let (h, p) = (
+        sim::start(4.0).unwrap(),
+        load(&repo("tests/data/short_segments.ngc")),
+    );
+    let mut s = session(&h, Recorder::none());
+    let o = run(&mut s, &p, &mut NoActions);
+    assert_done(&o, &p);
+    // The same device, a second program: it is already running (no
+    // hello), the sequence resumes.
+    let t = load("trident");
+    let mut s2 = session(&h, Recorder::none());
+    let o2 = opts();
+    let hs = s2.handshake(&o2).unwrap();
+    assert_eq!(hs.settings, SettingsCheck::Unchecked);
+    assert!(hs.hello.is_none());
+    assert!(
+        hs.status.next_seq as usize >= p.len() + 2,
+        "{:?}",
+        hs.status
+    );
+    let out = s2.run(&t, &hs, &o2, &mut NoActions, &mut Quiet);
+    assert_done(&out, &t);
+    let r = h.finish();
+    assert_eq!(
+        r.last_position.map(|q| q.to_bits()),
+        t.points.last().map(|q| q.pos.to_bits()),
+        "the axes were told the last point"
+    );
+}
+
+#[test]
+fn without_reports_the_end_is_found_from_the_status_alone() {
+    // The same closed path twice (it starts and ends at the origin, and
+    // the second run begins with the first run's point count), then a
+    // G-code program.
+    let h = sim::start(8.0).unwrap();
+    let mut o = opts();
+    o.reports = false;
+    for spec in ["infinity", "infinity", &repo("tests/data/gcode/pocket.ngc")] {
+        let p = load(spec);
+        let mut s = session(&h, Recorder::none());
+        let hs = s.handshake(&o).unwrap();
+        let out = s.run(&p, &hs, &o, &mut NoActions, &mut Quiet);
+        assert_eq!(out.exit, Exit::Done, "{spec}: {}", out.message);
+        assert_eq!(out.summary.scheduled, 0, "{spec}: no reports");
+        assert!(out.summary.ended_on_last_point, "{spec}");
+        let st = out.summary.last_status.unwrap();
+        assert_eq!(st.point_reached as usize, p.len(), "{spec}");
+    }
+}
+
+#[test]
+fn a_fresh_controllers_settings_are_checked() {
+    let (h, p) = (sim::start(10.0).unwrap(), load("infinity"));
+    let mut s = session(&h, Recorder::none());
+    let o = opts();
+    let hs = s.handshake(&o).unwrap();
+    assert_eq!(hs.settings, SettingsCheck::Matched);
+    assert!(hs.hello.is_some());
+    assert_done(&s.run(&p, &hs, &o, &mut NoActions, &mut Quiet), &p);
+}
+
+#[test]
+fn scripted_hold_resume_and_override_act_on_the_motion() {
+    let h = sim::start(3.0).unwrap();
+    let p = load("butterfly");
+    let rec = temp("hold.jsonl");
+    let mut s = session(&h, Recorder::create(&rec).unwrap());
+    let mut script = Script::parse(
+        "at point 400: hold\nafter 300 ms: resume\nat point 900: override 50\nat point 1400: override +10\nafter 100 ms: toggle\nafter 300 ms: space\n",
+    )
+    .unwrap();
+    let o = run(&mut s, &p, &mut script);
+    s.finish_record().unwrap();
+    assert_done(&o, &p);
+    assert!(script.is_done());
+    let msgs = received(&rec);
+    let ev = events(&msgs);
+    let want = [
+        PlanEvent::Hold,
+        PlanEvent::Resume,
+        PlanEvent::Override(50),
+        PlanEvent::Override(60),
+        PlanEvent::Hold,
+        PlanEvent::Resume,
+        PlanEvent::EndPath,
+    ];
+    let got: Vec<PlanEvent> = ev.iter().copied().filter(|e| want.contains(e)).collect();
+    assert_eq!(got, want, "the planner took them in order: {ev:?}");
+    let st = statuses(&msgs);
+    assert!(
+        st.iter()
+            .any(|s| s.motion == Motion::Held && s.feed_mm_per_min == 0),
+        "stopped in the hold"
+    );
+    assert!(st.iter().any(|s| s.override_percent == 50));
+    assert_eq!(o.summary.last_status.unwrap().override_percent, 60);
+}
+
+#[test]
+fn a_stop_and_an_estop_end_under_control_on_the_path() {
+    for (action, word) in [(Action::Stop, "stop"), (Action::EStop, "estop")] {
+        let h = sim::start(2.0).unwrap();
+        let p = load("trident");
+        let mut s = session(&h, Recorder::none());
+        let mut script = Script::parse(&format!("at point 700: {word}\n")).unwrap();
+        assert_eq!(script.steps()[0].action, action);
+        let o = run(&mut s, &p, &mut script);
+        assert_eq!(o.exit, Exit::UserStop, "{}", o.message);
+        if action == Action::EStop {
+            assert!(o.message.contains("controlled stop"), "{}", o.message);
+        }
+        let Some(DeviceMsg::Aborted { pos_mm, points, .. }) = o.summary.aborted else {
+            panic!("no stop report: {o:?}")
+        };
+        assert!(points > 0, "the rest of the path was dropped");
+        // The report comes when the planner is at rest; the tick executes
+        // what it generated a few ticks later.
+        let deadline = Instant::now() + Duration::from_secs(5);
+        loop {
+            let st = s.status_within(Duration::from_secs(2), |_| {}).unwrap();
+            if st.pos_mm == pos_mm && st.motion == Motion::Idle {
+                break;
+            }
+            assert!(Instant::now() < deadline, "{st:?}");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let r = h.finish();
+        assert_eq!(
+            r.last_position.map(|q| q.to_bits()),
+            Some(pos_mm),
+            "the tool is where the report says"
+        );
+        assert_ne!(Some(pos_mm), p.points.last().map(|q| q.pos.to_bits()));
+    }
+}
+
+/// Cuts the link once the controller reports `point` reached.
+struct CutAt<'a> {
+    h: &'a SimHandle,
+    point: u32,
+    at: Option<Instant>,
+}
+
+impl Actions for CutAt<'_> {
+    fn poll(&mut self, _: Duration, reached: u32) -> Vec<Action> {
+        if reached >= self.point && self.at.is_none() {
+            self.h.cut();
+            self.at = Some(Instant::now());
+        }
+        Vec::new()
+    }
+}
+
+#[test]
+fn a_cut_link_is_link_lost_at_once_and_a_busy_controller_is_refused_then_stopped() {
+    let h = sim::start(2.0).unwrap();
+    let p = load("trident");
+    let mut s = session(&h, Recorder::none());
+    let mut cut = CutAt {
+        h: &h,
+        point: 500,
+        at: None,
+    };
+    let o = run(&mut s, &p, &mut cut);
+    assert_eq!(o.exit, Exit::LinkLost, "{}", o.message);
+    let after = cut.at.unwrap().elapsed();
+    assert!(after < Duration::from_secs(1), "noticed after {after:?}");
+    // The controller went on alone and starved: a new sender finds it
+    // busy and refuses to start another path over it.
+    let mut s2 = session(&h, Recorder::none());
+    let o2 = run(&mut s2, &p, &mut NoActions);
+    assert_eq!(o2.exit, Exit::Controller, "{}", o2.message);
+    assert!(o2.message.contains("busy"), "{}", o2.message);
+    // `stop` clears it; then the program runs.
+    let mut s3 = session(&h, Recorder::none());
+    let a = s3.stop(&opts()).unwrap();
+    assert!(matches!(a, DeviceMsg::Aborted { .. }));
+    let mut s4 = session(&h, Recorder::none());
+    let t = load("infinity");
+    assert_done(&run(&mut s4, &t, &mut NoActions), &t);
+}
+
+/// A stream that goes silent on `freeze` (both ways) without closing.
+#[derive(Clone)]
+struct Gate<S> {
+    inner: S,
+    frozen: Arc<AtomicBool>,
+}
+
+impl<S: Read> Read for Gate<S> {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        loop {
+            if self.frozen.load(Ordering::Relaxed) {
+                std::thread::sleep(Duration::from_millis(50));
+                continue;
+            }
+            return self.inner.read(buf);
+        }
+    }
+}
+
+impl<S: Write> Write for Gate<S> {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        if self.frozen.load(Ordering::Relaxed) {
+            return Ok(buf.len());
+        }
+        self.inner.write(buf)
+    }
+    fn flush(&mut self) -> io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+struct FreezeAt {
+    frozen: Arc<AtomicBool>,
+    point: u32,
+    at: Option<Instant>,
+}
+
+impl Actions for FreezeAt {
+    fn poll(&mut self, _: Duration, reached: u32) -> Vec<Action> {
+        if reached >= self.point && self.at.is_none() {
+            self.frozen.store(true, Ordering::Relaxed);
+            self.at = Some(Instant::now());
+        }
+        Vec::new()
+    }
+}
+
+#[test]
+fn a_silent_link_is_link_lost_after_the_timeout() {
+    let h = sim::start(2.0).unwrap();
+    let p = load("trident");
+    let raw = h.connect().unwrap();
+    let frozen = Arc::new(AtomicBool::new(false));
+    let w = Gate {
+        inner: raw.try_clone().unwrap(),
+        frozen: frozen.clone(),
+    };
+    let r = Gate {
+        inner: raw,
+        frozen: frozen.clone(),
+    };
+    let mut s = Session::new(Box::new(w), Box::new(r), Recorder::none());
+    let mut o = opts();
+    o.link_timeout = Duration::from_secs(1);
+    let hs = s.handshake(&o).unwrap();
+    let mut freeze = FreezeAt {
+        frozen,
+        point: 300,
+        at: None,
+    };
+    let out = s.run(&p, &hs, &o, &mut freeze, &mut Quiet);
+    assert_eq!(out.exit, Exit::LinkLost, "{}", out.message);
+    assert!(out.message.contains("no answer"), "{}", out.message);
+    let after = freeze.at.unwrap().elapsed();
+    assert!(
+        after >= Duration::from_secs(1) && after < Duration::from_secs(3),
+        "{after:?}"
+    );
+}
+
+/// Drops every `every`-th frame the host writes.
+struct Lossy<W> {
+    inner: W,
+    n: usize,
+    every: usize,
+    dropped: Arc<std::sync::atomic::AtomicUsize>,
+}
+
+impl<W: Write> Write for Lossy<W> {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        self.n += 1;
+        if self.n % self.every == 0 {
+            self.dropped.fetch_add(1, Ordering::Relaxed);
+            return Ok(buf.len());
+        }
+        self.inner.write(buf)
+    }
+    fn flush(&mut self) -> io::Result<()> {
+        self.inner.flush()
+    }
+}
+
+#[test]
+fn a_lossy_link_resends_and_the_path_is_still_exact() {
+    let h = sim::start(4.0).unwrap();
+    let p = load("infinity");
+    let raw = h.connect().unwrap();
+    let dropped = Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let w = Lossy {
+        inner: raw.try_clone().unwrap(),
+        n: 0,
+        every: 11,
+        dropped: dropped.clone(),
+    };
+    let mut s = Session::new(Box::new(w), Box::new(raw), Recorder::none());
+    let o = run(&mut s, &p, &mut NoActions);
+    assert_done(&o, &p);
+    assert!(dropped.load(Ordering::Relaxed) > 5);
+    assert!(o.summary.resends > 0, "{:?}", o.summary);
+}
+
+#[test]
+fn a_lost_override_is_sent_again() {
+    // Drop exactly the first override frame.
+    struct DropOverride<W> {
+        inner: W,
+        done: bool,
+    }
+    impl<W: Write> Write for DropOverride<W> {
+        fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+            let mut r = link::FrameReader::new();
+            let is_override = buf
+                .iter()
+                .filter_map(|b| r.push::<HostMsg>(*b))
+                .any(|m| matches!(m, Ok(HostMsg::Override { .. })));
+            if is_override && !self.done {
+                self.done = true;
+                return Ok(buf.len());
+            }
+            self.inner.write(buf)
+        }
+        fn flush(&mut self) -> io::Result<()> {
+            self.inner.flush()
+        }
+    }
+    let h = sim::start(2.0).unwrap();
+    let p = load("infinity");
+    let raw = h.connect().unwrap();
+    let w = DropOverride {
+        inner: raw.try_clone().unwrap(),
+        done: false,
+    };
+    let mut s = Session::new(Box::new(w), Box::new(raw), Recorder::none());
+    let mut script = Script::parse("at point 100: override 150\n").unwrap();
+    let o = run(&mut s, &p, &mut script);
+    assert_done(&o, &p);
+    assert_eq!(o.summary.last_status.unwrap().override_percent, 150);
+}
