@@ -101,6 +101,8 @@ pub enum StartError {
     ForceLoop,
     /// Bad planner settings.
     PlannerSettings(ConfigError),
+    /// Bad step settings (with the tick rate).
+    StepSettings(crate::steps::StepConfigError),
 }
 
 impl From<OverrideError> for StartError {

@@ -7,7 +7,10 @@
 //! background until it has nothing left to do (on the target it runs many
 //! passes per tick), then the tick itself: the inputs sampled (a simulated
 //! e-stop and limit switches at positions of the simulated axes, in
-//! steps), [`Guard::tick`] and the executor.
+//! steps), [`Guard::tick`] and the executor. The axes are the firmware's
+//! step generator run by the tick ([`SoftSteps`], as under QEMU) with the
+//! settings' steps/mm and step timing: homing moves, stops and switches
+//! go through the same step engine as on a board.
 
 use link::{FrameReader, HostMsg, StoreResult};
 
@@ -23,20 +26,93 @@ use crate::ring::{Consumer, Producer, Ring};
 use crate::session::DeviceLink;
 use crate::settings::{Plan, CMD_QUEUE, SETPOINT_RING};
 use crate::spindle::MachineOutputs;
-use crate::stepper::StepOutput;
+use crate::stepper::{first_window, SoftSteps, StepOutput, StepPins, StepQueue};
+use crate::steps::{Edges, PlanQueue, Planner, StepEngine, StepReport, StepShared};
 use crate::store::{self, MemFlash, Store};
 use crate::tick::TickExecutor;
 
-/// Positions the tick sent to the axes (the step output's coordinates).
-#[derive(Clone, Debug, Default)]
+/// Step pins that count each axis's steps (rising step edges, signed by
+/// the direction pin, polarity applied).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct CountPins {
+    invert_step: u8,
+    invert_dir: u8,
+    level: u8,
+    /// Steps per axis the pins showed.
+    pub steps: [i64; 3],
+}
+
+impl StepPins for CountPins {
+    fn write(&mut self, e: Edges) {
+        let before = self.level;
+        self.level = (self.level | e.set) & !e.clear;
+        for (i, n) in self.steps.iter_mut().enumerate() {
+            let on = |l: u8| (l ^ self.invert_step) & 1 << i != 0;
+            if on(self.level) && !on(before) {
+                // DIR high is forward, unless inverted (`$3`).
+                let forward = (self.level ^ self.invert_dir << 3) & 8 << i != 0;
+                *n += if forward { 1 } else { -1 };
+            }
+        }
+    }
+}
+
+/// The simulated axes: the positions the tick sent (the step output's
+/// coordinates) and the step generator that moves them.
 pub struct Recorded {
     /// Every commanded position, in order.
     pub positions: Vec<Point3Mm>,
+    steps: SoftSteps<'static, CountPins>,
+}
+
+impl Recorded {
+    /// The step generator with `config`'s step settings, at the origin
+    /// (its queue and figures leaked: a few hundred bytes).
+    fn new(config: &Config) -> Result<Self, StartError> {
+        let timing = config.step_timing().map_err(StartError::StepSettings)?;
+        let plans: &'static mut PlanQueue = Box::leak(Box::default());
+        let shared: &'static StepShared = Box::leak(Box::default());
+        let (tx, rx) = plans.split();
+        let spm = [0, 1, 2].map(|a| config.steps_per_mm(a));
+        let planner = Planner::new(spm, &timing, Point3Mm::ORIGIN);
+        let start = planner.position();
+        let engine = StepEngine::new(timing, rx, shared, start, first_window(0, timing.window));
+        let pins = CountPins {
+            invert_step: timing.invert_step,
+            invert_dir: timing.invert_dir,
+            ..CountPins::default()
+        };
+        Ok(Recorded {
+            positions: Vec::new(),
+            steps: SoftSteps::new(StepQueue::new(planner, tx, shared), engine, pins),
+        })
+    }
+
+    /// Each axis's position in steps: the steps emitted (the engine's
+    /// count, checked against the pins').
+    pub fn steps(&self) -> [i64; 3] {
+        self.steps.engine().position()
+    }
+
+    /// The steps the pins showed.
+    pub fn pin_steps(&self) -> [i64; 3] {
+        self.steps.pins().steps
+    }
 }
 
 impl StepOutput for Recorded {
     fn update(&mut self, pos: Point3Mm) {
         self.positions.push(pos);
+        self.steps.update(pos);
+    }
+    fn hold(&mut self) {
+        self.steps.hold();
+    }
+    fn report(&self) -> StepReport {
+        self.steps.report()
+    }
+    fn stop(&mut self, at: Point3Mm) -> Option<Point3Mm> {
+        self.steps.stop(at)
     }
 }
 
@@ -153,7 +229,7 @@ impl VirtualDevice {
             sp_rx,
             periods: 0,
             tick_us: config.tick_us(),
-            axes: Recorded::default(),
+            axes: Recorded::new(&config)?,
             notices: Vec::new(),
             machine: SimMachine {
                 flash,
@@ -201,21 +277,9 @@ impl VirtualDevice {
         )
     }
 
-    /// Each axis's position in steps (the step output's count, at the
-    /// configured steps/mm).
+    /// Each axis's position in steps (the step generator's count).
     pub fn steps(&self) -> [i64; 3] {
-        let p = self
-            .axes
-            .positions
-            .last()
-            .copied()
-            .unwrap_or(Point3Mm::ORIGIN);
-        let c = self.background.config();
-        let b = p.to_bits();
-        [0, 1, 2].map(|a| {
-            let milli = c.steps_per_mm_milli(a) as i128;
-            ((b[a] as i128 * milli).div_euclid(1000) >> 32) as i64
-        })
+        self.axes.steps()
     }
 
     /// The input word the pins would show now (before the polarity).

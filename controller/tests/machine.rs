@@ -199,14 +199,23 @@ fn an_e_stop_input_mid_move_stops_the_output_at_that_tick_until_unlocked() {
         sent,
         "no position after the tick that saw it"
     );
+    let stopped_steps = b.dev.steps();
     assert!(!b.dev.drivers_enabled, "drivers released");
     b.run(500);
     assert_eq!(b.positions(), sent, "nothing more while in alarm");
+    assert_eq!(b.dev.steps(), stopped_steps, "no step after that tick");
+    assert_eq!(b.dev.axes.pin_steps(), stopped_steps);
     let s = b.status();
     assert_eq!(s.motion, Motion::Alarm);
-    assert_eq!(s.pos_mm, last.to_bits(), "stopped where it was: no ramp");
+    // Where the steps stopped: behind the last setpoint by the step
+    // pipeline (1.5 ticks, 0.05 mm a tick at 3000 mm/min), with no ramp.
+    let stop = Point3Mm::from_bits(s.pos_mm[0], s.pos_mm[1], s.pos_mm[2]);
+    let behind = x_of(last) - x_of(stop);
+    assert!((0.05..0.15).contains(&behind), "{behind} mm behind");
+    assert_eq!((x_of(stop) * 100.0).floor() as i64, stopped_steps[0]);
     assert_eq!(feed(&s), 0.0);
-    assert_eq!(b.alarms(), vec![(AlarmCode::EStopInput, last.to_bits())]);
+    assert_eq!(b.alarms(), vec![(AlarmCode::EStopInput, stop.to_bits())]);
+    let last = stop;
     let m = b.machine();
     assert_eq!((m.alarm, m.alarms), (Some(AlarmCode::EStopInput), 1));
     assert!(
@@ -478,6 +487,13 @@ fn homing_finds_the_switches_and_sets_the_machine_coordinates() {
     let phys = b.dev.axes.positions.last().unwrap().to_bits();
     assert!((phys[0] as f64 / MM - (3.0 - 10.0)).abs() < 0.011);
     assert!((phys[1] as f64 / MM - (5.0 - 20.0)).abs() < 0.011);
+    // The step engine made every move, homing's too: its count and the
+    // pins' are the commanded position's, nothing owed.
+    b.run(3);
+    let want = phys.map(|x| ((x as i128 * 100) >> 32) as i64);
+    assert_eq!(b.dev.steps(), want);
+    assert_eq!(b.dev.axes.pin_steps(), want);
+    assert_eq!(b.dev.exec().steps.fault(), None);
 }
 
 #[test]
