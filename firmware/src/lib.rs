@@ -7,17 +7,29 @@
 //! | [`board`] | the chip: clocks, USART1, GPIO, PWM timer, flash, watchdog |
 //! | [`boards`] | one pin map per board (QEMU, STM32F4-Discovery, BTT SKR 2) |
 //! | [`measure`] | SysTick as tick timer and cycle counter, stack high-water mark |
+//! | `usb` | (feature `usb`) the link as a USB CDC-ACM serial port on OTG FS |
 #![no_std]
 #![deny(missing_docs)]
 
 pub mod board;
 pub mod boards;
 pub mod measure;
+#[cfg(feature = "usb")]
+pub mod usb;
 
 #[cfg(feature = "qemu")]
 mod logger;
 #[cfg(all(feature = "board", not(feature = "qemu")))]
 use defmt_rtt as _;
+
+/// Where the link's replies go: USART1, or with feature `usb` the USB
+/// serial port (which also brings the bytes in).
+#[cfg(not(feature = "usb"))]
+pub type LinkPort = board::UsartTx;
+/// Where the link's replies go: USART1, or with feature `usb` the USB
+/// serial port (which also brings the bytes in).
+#[cfg(feature = "usb")]
+pub type LinkPort = usb::UsbPort;
 
 defmt::timestamp!("{=u32:us}", measure::uptime_us());
 

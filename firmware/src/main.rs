@@ -6,6 +6,7 @@
 //! |---|---|---|---|
 //! | `tick` | SysTick (default 1 kHz) | 3 (highest) | inputs, alarms and stops ([`controller::guard`]), next setpoint from the ring to the step/dir outputs ([`controller::tick`]), driver enable |
 //! | `link_rx` | USART1 receive | 2 | bytes → frames → the link session ([`controller::session`]) |
+//! | `usb` | OTG FS (feature `usb`) | 2 | the USB stack; its received bytes to `link_rx` (`fuzzy_firmware::usb`) |
 //! | `idle` | background | 0 | watchdog, transmit, then one background pass ([`controller::background`]) |
 //!
 //! Queues (`controller::ring`, lock-free): commands link → idle (their free
@@ -40,9 +41,10 @@ mod app {
     use controller::tick::TickExecutor;
     use fuzzy_core::units::Point3Mm;
     use fuzzy_firmware::board::{
-        self, Enable, Inputs, Outputs, Pin, SettingsFlash, UsartRx, UsartTx, Watchdog,
+        self, Enable, Inputs, Outputs, Pin, SettingsFlash, UsartRx, Watchdog,
     };
     use fuzzy_firmware::measure::{self, StackProbe};
+    use fuzzy_firmware::LinkPort;
     use link::{AlarmCode, DeviceMsg, FrameReader, HostMsg, StoreResult};
 
     /// The spindle, coolant and settings store, as the background drives
@@ -72,7 +74,7 @@ mod app {
     struct Shared {
         link: DeviceLink,
         exec: TickExecutor,
-        port: UsartTx,
+        port: LinkPort,
     }
 
     #[local]
@@ -141,7 +143,7 @@ mod app {
             Shared {
                 link,
                 exec: TickExecutor::new(Point3Mm::ORIGIN),
-                port: b.tx,
+                port: link_port(b.tx),
             },
             Local {
                 sp_rx,
@@ -167,6 +169,34 @@ mod app {
             },
             init::Monotonics(),
         )
+    }
+
+    #[cfg(not(feature = "usb"))]
+    fn link_port(tx: board::UsartTx) -> LinkPort {
+        tx
+    }
+
+    #[cfg(feature = "usb")]
+    fn link_port(_: board::UsartTx) -> LinkPort {
+        match fuzzy_firmware::usb::UsbPort::take() {
+            Some(p) => p,
+            None => {
+                defmt::error!("USB set-up failed");
+                fuzzy_firmware::fail()
+            }
+        }
+    }
+
+    /// The next byte from the host.
+    #[cfg(not(feature = "usb"))]
+    fn next_byte(rx: &mut UsartRx, _: &mut impl rtic::Mutex<T = LinkPort>) -> Option<u8> {
+        rx.read()
+    }
+
+    /// The next byte from the host.
+    #[cfg(feature = "usb")]
+    fn next_byte(_: &mut UsartRx, port: &mut impl rtic::Mutex<T = LinkPort>) -> Option<u8> {
+        port.lock(|p| p.read())
     }
 
     /// The planner, built in its static slot (6.5 KB: one temporary on
@@ -201,7 +231,7 @@ mod app {
     #[task(binds = USART1, priority = 2, local = [rx, reader, cmd_tx], shared = [link, exec, port])]
     fn link_rx(cx: link_rx::Context) {
         let (local, mut sh) = (cx.local, cx.shared);
-        while let Some(byte) = local.rx.read() {
+        while let Some(byte) = next_byte(local.rx, &mut sh.port) {
             let Some(frame) = local.reader.push::<HostMsg>(byte) else {
                 continue;
             };
@@ -215,6 +245,15 @@ mod app {
             }
             (&mut sh.link, &mut sh.port).lock(|l, p| l.tx.drain(|b| p.try_write(b)));
         }
+    }
+
+    /// The USB stack (feature `usb`): enumeration and transfers, then the
+    /// received bytes to `link_rx` (pended: the same path as the USART's).
+    #[cfg(feature = "usb")]
+    #[task(binds = OTG_FS, priority = 2, shared = [port])]
+    fn usb(mut cx: usb::Context) {
+        cx.shared.port.lock(|p| p.poll());
+        rtic::pend(stm32f4::stm32f405::Interrupt::USART1);
     }
 
     /// Background: watchdog, transmit, one pass, sleep when there is
