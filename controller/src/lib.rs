@@ -17,6 +17,7 @@
 //! | [`feeder`] | commands into the fuzzy scheduler (first stage) |
 //! | [`planning`] | scheduled points into the velocity planner, setpoints out, the feeding policy (second stage) |
 //! | [`controls`] | hold, resume, override and Njiri et al.'s force loop |
+//! | [`fault`] | the last hard fault, kept across the reset and reported at the next boot |
 //! | [`tick`] | the tick's work: next setpoint to the axes, counters |
 //! | [`stepper`] | step/direction outputs on `embedded-hal` pins |
 //! | [`session`] | the device side of the link: sequence, credit, replies (sans-IO) |
@@ -46,6 +47,7 @@ pub mod checksum;
 pub mod command;
 pub mod config;
 pub mod controls;
+pub mod fault;
 pub mod feeder;
 pub mod guard;
 pub mod homing;

@@ -229,7 +229,10 @@ def panic_sites(bless, res, path, known, label):
         if site is None:
             # No source line of ours (an outlined standard-library function):
             # name the function instead of dropping the site.
-            site = "fn " + re.sub(r"::h[0-9a-f]{16}$", "", func) + ":0"
+            # (The linker's outlined pieces are numbered per link: the
+            # number is dropped.)
+            name = re.sub(r"^OUTLINED_FUNCTION_\d+$", "OUTLINED_FUNCTION", re.sub(r"::h[0-9a-f]{16}$", "", func))
+            site = "fn " + name + ":0"
         site = site.split(" :")[0].replace(ROOT + "/", "") if site.startswith("fn ") else site.split(" ")[0].replace(ROOT + "/", "")
         site = re.sub(r"^.*/registry/src/[^/]+/", "", site)
         # Keyed by file and panic kind, not line, so that edits elsewhere

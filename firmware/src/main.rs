@@ -105,6 +105,11 @@ mod app {
         let mut b = board::init(cx.device);
         let latch: &'static Latch = cx.local.latch_slot;
         let (config, stored, store) = store::load(&b.flash);
+        // A fault before this boot names the alarm (the watchdog reset
+        // that followed it is its consequence).
+        if let Some(code) = fuzzy_firmware::take_fault() {
+            latch.trip(code);
+        }
         if b.watchdog_reset {
             latch.trip(AlarmCode::Watchdog);
         }
