@@ -103,6 +103,16 @@ pub fn spawn(speed: f64) -> io::Result<(UnixStream, SimHandle)> {
 /// its clock starts with the first [`SimHandle::connect`], which gets its
 /// hello.
 pub fn start(speed: f64) -> io::Result<SimHandle> {
+    start_with(speed, |_| {})
+}
+
+/// [`start`], with `setup` run on the fresh device first (limit switches
+/// on its axes, an active e-stop input: `controller::sim::VirtualDevice`'s
+/// fields).
+pub fn start_with(
+    speed: f64,
+    setup: impl FnOnce(&mut VirtualDevice) + Send + 'static,
+) -> io::Result<SimHandle> {
     if !(speed.is_finite() && speed > 0.0 && speed <= 1000.0) {
         return Err(io::Error::other(format!(
             "simulation speed {speed}: must be in (0, 1000]"
@@ -119,7 +129,8 @@ pub fn start(speed: f64) -> io::Result<SimHandle> {
     let thread = thread::Builder::new()
         .name("sim-controller".into())
         .spawn(move || match VirtualDevice::new() {
-            Ok(d) => {
+            Ok(mut d) => {
+                setup(&mut d);
                 let _ = ready_tx.send(Ok(()));
                 while !go2.load(Ordering::Relaxed) && !stop2.load(Ordering::Relaxed) {
                     thread::sleep(Duration::from_micros(100));

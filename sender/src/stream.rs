@@ -13,7 +13,9 @@ use controller::session::DeviceLink;
 use controller::settings::{Plan, CMD_CREDIT, MOTION_CONFIG};
 use fuzzy_core::scheduler::SchedulerConfig;
 use link::client::{Connection, Hello, SILENCE};
-use link::{DeviceMsg, ErrorCode, HostMsg, Motion, PlanEvent, Status, StoreResult};
+use link::{
+    AlarmCode, DeviceMsg, ErrorCode, HostMsg, MachineStatus, Motion, PlanEvent, Status, StoreResult,
+};
 
 use crate::actions::{Action, Effect, Operator, StopKind};
 use crate::exit::{Exit, Failure};
@@ -119,6 +121,8 @@ pub struct Handshake {
     pub hello: Option<Hello>,
     /// Its status.
     pub status: Status,
+    /// Its machine status (alarm, homing, spindle).
+    pub machine: MachineStatus,
     /// The settings check.
     pub settings: SettingsCheck,
     /// The credit of an empty command queue.
@@ -196,6 +200,12 @@ pub fn busy(s: &Status, credit_size: u32) -> bool {
     !at_rest(s, credit_size)
 }
 
+/// Whether the controller is in its alarm state (by its status or its
+/// machine status), and the alarm's cause if known.
+fn hs_alarm(s: &Status, m: &MachineStatus) -> Option<Option<AlarmCode>> {
+    (s.motion == Motion::Alarm || m.alarm.is_some()).then_some(m.alarm)
+}
+
 /// What a run did.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Summary {
@@ -219,6 +229,8 @@ pub struct Summary {
     pub refusals: u32,
     /// The controller's stop report, when a stop ended the run.
     pub aborted: Option<DeviceMsg>,
+    /// The alarm that ended the run: its cause and where the tool stopped.
+    pub alarm: Option<(AlarmCode, [i64; 3])>,
 }
 
 /// How a run ended.
@@ -245,7 +257,7 @@ const SETTLE: Duration = Duration::from_secs(2);
 
 /// A session with one controller.
 pub struct Session {
-    conn: Connection,
+    pub(crate) conn: Connection,
     rec: Recorder,
     t0: Instant,
     last_rx: Instant,
@@ -278,7 +290,7 @@ impl Session {
         self.t0.elapsed().as_secs_f64()
     }
 
-    fn recv(&mut self, timeout: Duration) -> Result<Option<DeviceMsg>, Failure> {
+    pub(crate) fn recv(&mut self, timeout: Duration) -> Result<Option<DeviceMsg>, Failure> {
         let m = self.conn.recv(timeout).map_err(|e| {
             Failure::new(
                 Exit::LinkLost,
@@ -296,9 +308,9 @@ impl Session {
         Ok(m)
     }
 
-    fn send(&mut self, m: &HostMsg) -> Result<(), Failure> {
+    pub(crate) fn send(&mut self, m: &HostMsg) -> Result<(), Failure> {
         let t = self.t_s();
-        if !matches!(m, HostMsg::StatusQuery) {
+        if !matches!(m, HostMsg::StatusQuery | HostMsg::MachineQuery) {
             self.rec.sent(t, m);
         }
         self.conn
@@ -336,6 +348,62 @@ impl Session {
         }
     }
 
+    /// Send `msg` (again every 500 ms, within `timeout`) until the reply
+    /// `pick` takes comes, or a refusal (its code; sequence and credit
+    /// refusals are the link client's); other messages go to `seen`.
+    pub fn ask<T>(
+        &mut self,
+        msg: &HostMsg,
+        timeout: Duration,
+        mut pick: impl FnMut(&DeviceMsg) -> Option<T>,
+        mut seen: impl FnMut(&DeviceMsg),
+    ) -> Result<Result<T, ErrorCode>, Failure> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            self.send(msg)?;
+            let again = Instant::now() + Duration::from_millis(500);
+            while let Some(left) = again.checked_duration_since(Instant::now()) {
+                let Some(m) = self.recv(left.min(Duration::from_millis(50)))? else {
+                    continue;
+                };
+                if let Some(t) = pick(&m) {
+                    return Ok(Ok(t));
+                }
+                if let DeviceMsg::Error { code, .. } = m {
+                    if !matches!(code, ErrorCode::OutOfSequence | ErrorCode::NoCredit) {
+                        return Ok(Err(code));
+                    }
+                }
+                seen(&m);
+            }
+            if Instant::now() >= deadline {
+                return Err(Failure::new(
+                    Exit::LinkLost,
+                    format!(
+                        "no answer from the controller within {:.1} s",
+                        timeout.as_secs_f64()
+                    ),
+                ));
+            }
+        }
+    }
+
+    /// The machine status (alarm, homing, spindle, coolant, inputs, the
+    /// settings store).
+    pub fn machine_within(&mut self, timeout: Duration) -> Result<MachineStatus, Failure> {
+        let pick = |m: &DeviceMsg| match *m {
+            DeviceMsg::Machine(s) => Some(s),
+            _ => None,
+        };
+        self.ask(&HostMsg::MachineQuery, timeout, pick, |_| {})?
+            .map_err(|code| {
+                Failure::new(
+                    Exit::Controller,
+                    format!("the controller refused the machine status query ({code:?})"),
+                )
+            })
+    }
+
     /// Connect to the controller: its hello if it just reset, its status,
     /// the link client resynchronised to its sequence, its settings
     /// checked against the host's.
@@ -347,6 +415,7 @@ impl Session {
             }
         }
         let status = self.status_within(opts.link_timeout, |_| {})?;
+        let machine = self.machine_within(opts.link_timeout)?;
         // A board that resets when its port opens may say hello late.
         let hello = self.conn.client().hello();
         // Whether it just reset or was running: continue its sequence.
@@ -377,6 +446,7 @@ impl Session {
         Ok(Handshake {
             hello,
             status,
+            machine,
             settings,
             credit_size,
         })
@@ -451,6 +521,7 @@ struct Run<'a> {
     eta: Eta,
     operator: Operator,
     status0: Status,
+    machine0: MachineStatus,
     stale_reached: u32,
     started: bool,
     end_planned: bool,
@@ -460,6 +531,12 @@ struct Run<'a> {
     start_seq: u32,
     t_start: Instant,
     summary: Summary,
+    /// A path command of ours was refused for an alarm: when.
+    alarm_refused: Option<Instant>,
+    /// The machine status was asked for after that.
+    machine_asked: bool,
+    /// The last status.
+    last_status: Status,
 }
 
 impl<'a> Run<'a> {
@@ -478,6 +555,7 @@ impl<'a> Run<'a> {
             eta,
             operator: Operator::new(opts.initial_override.unwrap_or(hs.status.override_percent)),
             status0: hs.status,
+            machine0: hs.machine,
             stale_reached: hs.status.point_reached,
             started: hs.status.point_reached == 0,
             end_planned: false,
@@ -487,7 +565,48 @@ impl<'a> Run<'a> {
             start_seq: 0,
             t_start: Instant::now(),
             summary: Summary::default(),
+            alarm_refused: None,
+            machine_asked: false,
+            last_status: hs.status,
         }
+    }
+
+    /// How an alarm ended the run: its cause, where the tool stopped (and
+    /// the program's point and line reached), what to do.
+    fn alarm_message(
+        &self,
+        code: AlarmCode,
+        pos_mm: [i64; 3],
+        stopping: Option<StopKind>,
+    ) -> String {
+        let [x, y, z] = pos_mm.map(bits_f64);
+        let at = match self.reached(&self.last_status) {
+            Some(r) if r > 0 => {
+                let i = r as usize - 1;
+                match self.program.line_of(i) {
+                    Some(l) => format!(
+                        " after point {r} of {} (input line {l})",
+                        self.program.len()
+                    ),
+                    None => format!(" after point {r} of {}", self.program.len()),
+                }
+            }
+            _ => String::new(),
+        };
+        let lead = match stopping {
+            Some(StopKind::EStop) => "E-STOP: ",
+            _ => "",
+        };
+        let pos = if crate::machine::position_kept(code) {
+            "stopped under control"
+        } else {
+            "stopped with no deceleration (steps may be lost: re-home or check the position)"
+        };
+        format!(
+            "{lead}ALARM: {}; the tool {pos} at X{x:.3} Y{y:.3} Z{z:.3}{at}; the rest of the program was dropped; {}",
+            crate::machine::alarm_text(code),
+            crate::machine::UNLOCK_HINT
+        )
     }
 
     /// Points of our path reached, once the controller is on it.
@@ -552,6 +671,16 @@ impl<'a> Run<'a> {
     ) -> Result<(Exit, String), Failure> {
         let cfg = self.opts.config;
         let (f_max, f_min) = (cfg.f_max.0.to_bits(), cfg.f_min.0.to_bits());
+        if let Some(code) = hs_alarm(&self.status0, &self.machine0) {
+            return Err(Failure::new(
+                Exit::Alarm,
+                format!(
+                    "the controller is in its alarm state: {}; nothing was sent; {}",
+                    code.map_or("(cause not reported)".into(), crate::machine::alarm_text),
+                    crate::machine::UNLOCK_HINT
+                ),
+            ));
+        }
         if busy(&self.status0, self.credit_size) {
             let st = &self.status0;
             return Err(Failure::new(
@@ -612,11 +741,14 @@ impl<'a> Run<'a> {
                         control_sent = Instant::now();
                     }
                     Effect::Stop(kind) => {
-                        let m = s.conn.client_mut().abort();
+                        let m = match kind {
+                            StopKind::Stop => s.conn.client_mut().abort(),
+                            StopKind::EStop => HostMsg::EStop,
+                        };
                         s.send(&m)?;
                         display.note(match kind {
                             StopKind::Stop => "stopping: the motion stops on the path, the rest of the program is dropped",
-                            StopKind::EStop => "e-stop asked for: the protocol has no emergency stop yet, so this is the same controlled stop (the motion stops on the path under control)",
+                            StopKind::EStop => "E-STOP: the step output stops at the next tick, with no deceleration; the drivers are released",
                         });
                         stopping = Some((m, kind, Instant::now(), Instant::now()));
                     }
@@ -653,6 +785,14 @@ impl<'a> Run<'a> {
                         }
                         self.reconcile(s, &st, &mut control_sent)?;
                     }
+                }
+            }
+            // Refused for an alarm and no report of it: ask for the machine
+            // status (it names the alarm).
+            if let Some(t) = self.alarm_refused {
+                if !self.machine_asked && t.elapsed() > Duration::from_millis(500) {
+                    s.send(&HostMsg::MachineQuery)?;
+                    self.machine_asked = true;
                 }
             }
             // Sent and not acknowledged for a while: resend from where the
@@ -735,6 +875,7 @@ impl<'a> Run<'a> {
                 ..
             } if self.started => self.end_planned = true,
             DeviceMsg::Status(st) => {
+                self.last_status = st;
                 if st.point_reached != self.stale_reached {
                     self.started = true;
                 }
@@ -745,17 +886,51 @@ impl<'a> Run<'a> {
             }
             DeviceMsg::Error { code, expected_seq } => {
                 self.summary.refusals += 1;
-                if matches!(code, ErrorCode::OutOfRange | ErrorCode::Rejected)
-                    && self.ours(expected_seq)
-                    && stopping.is_none()
+                let ours = self.ours(expected_seq) && stopping.is_none();
+                if code == ErrorCode::Alarm && ours {
+                    // The alarm's report follows (or the machine status
+                    // names it, if the report was missed).
+                    self.alarm_refused.get_or_insert_with(Instant::now);
+                } else if matches!(
+                    code,
+                    ErrorCode::OutOfRange
+                        | ErrorCode::Rejected
+                        | ErrorCode::OutOfTravel
+                        | ErrorCode::NotHomed
+                        | ErrorCode::Busy
+                ) && ours
                 {
+                    let why = match code {
+                        ErrorCode::OutOfTravel => {
+                            ": outside the machine's travel (soft limits, $20 and $130-$132)"
+                        }
+                        ErrorCode::NotHomed => {
+                            ": homing is required before motion ($22): run `fuzzy-send home`"
+                        }
+                        ErrorCode::Busy => ": the controller is busy (a homing cycle)",
+                        _ => "",
+                    };
                     return Err(Failure::new(
                         Exit::Controller,
                         format!(
-                            "the controller refused {} ({code:?})",
+                            "the controller refused {} ({code:?}){why}",
                             self.describe_seq(expected_seq)
                         ),
                     ));
+                }
+            }
+            DeviceMsg::Alarm { code, pos_mm, .. } => {
+                self.summary.alarm = Some((code, pos_mm));
+                return Ok(Some((
+                    Exit::Alarm,
+                    self.alarm_message(code, pos_mm, stopping),
+                )));
+            }
+            DeviceMsg::Machine(ms) if self.alarm_refused.is_some() => {
+                if let Some(code) = ms.alarm {
+                    let pos = self.last_status.pos_mm;
+                    self.summary.alarm = Some((code, pos));
+                    return Ok(Some((Exit::Alarm, self.alarm_message(code, pos, stopping))));
                 }
             }
             DeviceMsg::Aborted { pos_mm, .. } => {
@@ -768,10 +943,8 @@ impl<'a> Run<'a> {
                     Some(StopKind::Stop) => {
                         (Exit::UserStop, format!("stopped by the user: {what}"))
                     }
-                    Some(StopKind::EStop) => (
-                        Exit::UserStop,
-                        format!("e-stop (sent as a controlled stop): {what}"),
-                    ),
+                    // An e-stop ends with the alarm's report, not this.
+                    Some(StopKind::EStop) => (Exit::UserStop, format!("stopped: {what}")),
                     None => (
                         Exit::Controller,
                         format!("the controller aborted the path: {what}"),
@@ -873,6 +1046,7 @@ mod tests {
         Handshake {
             hello: None,
             status,
+            machine: MachineStatus::default(),
             settings: SettingsCheck::Unchecked,
             credit_size: CMD_CREDIT,
         }
@@ -929,14 +1103,37 @@ mod tests {
             .unwrap();
         assert_eq!(exit, Exit::UserStop);
         assert!(msg.contains("X1.000"), "{msg}");
-        let (exit, msg) = r
-            .on_message(&aborted, Some(StopKind::EStop))
-            .unwrap()
-            .unwrap();
-        assert_eq!(exit, Exit::UserStop);
-        assert!(msg.contains("controlled stop"), "{msg}");
         let (exit, _) = r.on_message(&aborted, None).unwrap().unwrap();
         assert_eq!(exit, Exit::Controller);
+        // An alarm: exit 7, its cause and where the tool stopped.
+        let alarm = DeviceMsg::Alarm {
+            code: link::AlarmCode::HardLimit { axis: 0, max: true },
+            pos_mm: [5 << 32, 0, 0],
+            next_seq: 40,
+        };
+        let (exit, msg) = r.on_message(&alarm, None).unwrap().unwrap();
+        assert_eq!(exit, Exit::Alarm);
+        assert!(
+            msg.contains("X max switch") && msg.contains("X5.000") && msg.contains("unlock"),
+            "{msg}"
+        );
+        // A refusal for the alarm waits for its report.
+        let mut r = run(&p, &o);
+        assert_eq!(r.on_message(&refused(ErrorCode::Alarm, 12), None), Ok(None));
+        assert!(r.alarm_refused.is_some());
+        let ms = DeviceMsg::Machine(MachineStatus {
+            alarm: Some(link::AlarmCode::EStopInput),
+            ..MachineStatus::default()
+        });
+        let (exit, msg) = r.on_message(&ms, None).unwrap().unwrap();
+        assert_eq!(exit, Exit::Alarm);
+        assert!(msg.contains("e-stop input"), "{msg}");
+        // Homing required, or outside the travel: refused, named.
+        let e = r
+            .on_message(&refused(ErrorCode::NotHomed, 11), None)
+            .unwrap_err();
+        assert_eq!(e.exit, Exit::Controller);
+        assert!(e.message.contains("fuzzy-send home"), "{e}");
         // A hello during the run: the controller reset.
         let hello = DeviceMsg::Hello {
             tick_hz: 1000,

@@ -2,7 +2,8 @@
 //! (`controller::sim::VirtualDevice`, the firmware's own code) through an
 //! in-process byte stream (`sender::sim`): programs run to their end with
 //! the host's feeds bit for bit and the tool on the last point; scripted
-//! hold, resume, override, stop and e-stop; a cut link, a silent link, a
+//! hold, resume, override, stop; an e-stop (the alarm, exit 7) and an
+//! unlock; a cut link, a silent link, a
 //! lossy link; a controller already running (resync), a busy one, and
 //! `stop` clearing it.
 
@@ -13,7 +14,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use host_sim::config::SimConfig;
-use link::{DeviceMsg, HostMsg, Motion, PlanEvent, Status};
+use link::{AlarmCode, DeviceMsg, HostMsg, Motion, PlanEvent, Status};
 use sender::actions::{Action, Script};
 use sender::exit::Exit;
 use sender::program::{self, Program};
@@ -196,41 +197,94 @@ fn scripted_hold_resume_and_override_act_on_the_motion() {
 }
 
 #[test]
-fn a_stop_and_an_estop_end_under_control_on_the_path() {
-    for (action, word) in [(Action::Stop, "stop"), (Action::EStop, "estop")] {
-        let h = sim::start(2.0).unwrap();
-        let p = load("trident");
-        let mut s = session(&h, Recorder::none());
-        let mut script = Script::parse(&format!("at point 700: {word}\n")).unwrap();
-        assert_eq!(script.steps()[0].action, action);
-        let o = run(&mut s, &p, &mut script);
-        assert_eq!(o.exit, Exit::UserStop, "{}", o.message);
-        if action == Action::EStop {
-            assert!(o.message.contains("controlled stop"), "{}", o.message);
+fn a_stop_ends_under_control_on_the_path() {
+    let h = sim::start(2.0).unwrap();
+    let p = load("trident");
+    let mut s = session(&h, Recorder::none());
+    let mut script = Script::parse("at point 700: stop\n").unwrap();
+    assert_eq!(script.steps()[0].action, Action::Stop);
+    let o = run(&mut s, &p, &mut script);
+    assert_eq!(o.exit, Exit::UserStop, "{}", o.message);
+    let Some(DeviceMsg::Aborted { pos_mm, points, .. }) = o.summary.aborted else {
+        panic!("no stop report: {o:?}")
+    };
+    assert!(points > 0, "the rest of the path was dropped");
+    // The report comes when the planner is at rest; the tick executes
+    // what it generated a few ticks later.
+    let deadline = Instant::now() + Duration::from_secs(5);
+    loop {
+        let st = s.status_within(Duration::from_secs(2), |_| {}).unwrap();
+        if st.pos_mm == pos_mm && st.motion == Motion::Idle {
+            break;
         }
-        let Some(DeviceMsg::Aborted { pos_mm, points, .. }) = o.summary.aborted else {
-            panic!("no stop report: {o:?}")
-        };
-        assert!(points > 0, "the rest of the path was dropped");
-        // The report comes when the planner is at rest; the tick executes
-        // what it generated a few ticks later.
-        let deadline = Instant::now() + Duration::from_secs(5);
-        loop {
-            let st = s.status_within(Duration::from_secs(2), |_| {}).unwrap();
-            if st.pos_mm == pos_mm && st.motion == Motion::Idle {
-                break;
-            }
-            assert!(Instant::now() < deadline, "{st:?}");
-            std::thread::sleep(Duration::from_millis(20));
-        }
-        let r = h.finish();
-        assert_eq!(
-            r.last_position.map(|q| q.to_bits()),
-            Some(pos_mm),
-            "the tool is where the report says"
-        );
-        assert_ne!(Some(pos_mm), p.points.last().map(|q| q.pos.to_bits()));
+        assert!(Instant::now() < deadline, "{st:?}");
+        std::thread::sleep(Duration::from_millis(20));
     }
+    let r = h.finish();
+    assert_eq!(
+        r.last_position.map(|q| q.to_bits()),
+        Some(pos_mm),
+        "the tool is where the report says"
+    );
+    assert_ne!(Some(pos_mm), p.points.last().map(|q| q.pos.to_bits()));
+}
+
+/// A scripted e-stop mid-path: `HostMsg::EStop`, the controller's alarm
+/// (exit 7, the cause and where the tool stopped); the next program is
+/// refused while in alarm, with nothing sent; after an unlock it runs.
+#[test]
+fn an_estop_is_the_alarm_until_unlocked() {
+    let h = sim::start(2.0).unwrap();
+    let p = load("trident");
+    let rec = temp("estop.jsonl");
+    let mut s = session(&h, Recorder::create(&rec).unwrap());
+    let mut script = Script::parse("at point 700: estop\n").unwrap();
+    assert_eq!(script.steps()[0].action, Action::EStop);
+    let o = run(&mut s, &p, &mut script);
+    s.finish_record().unwrap();
+    assert_eq!(o.exit, Exit::Alarm, "{}", o.message);
+    assert_eq!(o.exit.code(), 7);
+    assert!(
+        o.message.contains("E-STOP") && o.message.contains("e-stop from the host"),
+        "{}",
+        o.message
+    );
+    assert!(o.message.contains("unlock"), "{}", o.message);
+    let Some((code, pos_mm)) = o.summary.alarm else {
+        panic!("no alarm: {o:?}")
+    };
+    assert_eq!(code, AlarmCode::EStopLink);
+    assert!(o.summary.aborted.is_none(), "not a controlled stop");
+    // It was moving when it stopped: the last status before the alarm
+    // had a feed (no ramp down to rest on the path).
+    let st = statuses(&received(&rec));
+    let before = st.iter().rev().find(|s| s.motion != Motion::Alarm).unwrap();
+    assert!(before.feed_mm_per_min > 0, "{before:?}");
+    // In alarm: the status and machine status say so, a program is refused.
+    let mut s2 = session(&h, Recorder::none());
+    let st = s2.status_within(Duration::from_secs(2), |_| {}).unwrap();
+    assert_eq!(st.motion, Motion::Alarm);
+    assert_eq!(st.pos_mm, pos_mm, "stopped where the report says");
+    let ms = s2.machine_within(Duration::from_secs(2)).unwrap();
+    assert_eq!(ms.alarm, Some(AlarmCode::EStopLink));
+    let refused = run(&mut s2, &p, &mut NoActions);
+    assert_eq!(refused.exit, Exit::Alarm, "{}", refused.message);
+    assert!(
+        refused.message.contains("nothing was sent"),
+        "{}",
+        refused.message
+    );
+    // Unlocked: idle, and the program runs from where the tool stopped.
+    let ms = s2.unlock(Duration::from_secs(2)).unwrap();
+    assert_eq!(ms.alarm, None);
+    let mut s3 = session(&h, Recorder::none());
+    let t = load("infinity");
+    assert_done(&run(&mut s3, &t, &mut NoActions), &t);
+    let r = h.finish();
+    assert_eq!(
+        r.last_position.map(|q| q.to_bits()),
+        t.points.last().map(|q| q.pos.to_bits())
+    );
 }
 
 /// Cuts the link once the controller reports `point` reached.
