@@ -588,14 +588,27 @@ fn describe_handshake(hs: &Handshake) -> String {
         ),
     };
     match &hs.settings {
-        SettingsCheck::Matched => s.push_str("; settings match the host's"),
+        SettingsCheck::Matched => s.push_str("; settings match the host's (its hello is what its $ settings give)"),
+        SettingsCheck::Unchecked if hs.config.is_some() => s.push_str(
+            "; $ settings read (its hello went out at reset: reset the board to check the firmware's build against the host's)",
+        ),
         SettingsCheck::Unchecked => s.push_str(
-            "; settings not checked (its hello went out at reset: reset the board to check them)",
+            "; settings not checked (its hello went out at reset, and it did not answer every $ query)",
         ),
         SettingsCheck::Differ(d) => {
             s.push_str("; WARNING, settings differ (--no-check): ");
             s.push_str(&d.join("; "));
         }
+    }
+    if !hs.changed.is_empty() {
+        s.push_str(&format!(
+            "; {} $ settings differ from the defaults: {}",
+            hs.changed.len(),
+            hs.changed.join(", ")
+        ));
+    }
+    if hs.machine.restart_needed {
+        s.push_str("; a changed setting takes effect only at the next reset");
     }
     s
 }
@@ -623,6 +636,28 @@ pub fn summary_text(o: &Outcome) -> Vec<String> {
                 ex.join(", ")
             ));
         }
+    }
+    if s.machine_sent > 0 {
+        let mut l = format!(
+            "machine: {} spindle/coolant commands sent in the path, {} applied by the controller",
+            s.machine_sent, s.machine_applied
+        );
+        if s.machine_off_point.is_empty() {
+            if s.machine_applied > 0 {
+                l.push_str(", each with the tool at rest at its point");
+            }
+        } else {
+            let ex: Vec<String> = s
+                .machine_off_point
+                .iter()
+                .map(|(i, c, h)| format!("command {}: controller point {c}, host {h}", i + 1))
+                .collect();
+            l = format!(
+                "WARNING: {l}, some at another point than the host's: {}",
+                ex.join(", ")
+            );
+        }
+        out.push(l);
     }
     if o.exit == Exit::Done && !s.ended_on_last_point {
         out.push("WARNING: the tool did not end exactly on the path's last point".into());
@@ -666,11 +701,7 @@ fn send(a: SendArgs, target: &Target, link_timeout: Duration) -> Result<Exit, Fa
         "connected to {target}: {}",
         describe_handshake(&hs)
     ));
-    let f_max = a.f_max.unwrap_or_else(|| {
-        hs.hello.map_or(program::machine_feed_max(), |h| {
-            h.feed_max_mm_per_min as f64
-        })
-    });
+    let f_max = a.f_max.unwrap_or_else(|| hs.feed_max_mm_per_min());
     opts.config =
         program::scheduler_config(f_max, a.f_min).map_err(|e| Failure::new(Exit::Usage, e))?;
     // A G-code program starts where the tool is.

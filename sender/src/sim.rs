@@ -18,6 +18,7 @@ use std::time::{Duration, Instant};
 
 use controller::settings::TICK_HZ;
 use controller::sim::VirtualDevice;
+use controller::store::MemFlash;
 use fuzzy_core::units::Point3Mm;
 
 /// What the simulated controller did, when its thread ends.
@@ -113,6 +114,16 @@ pub fn start_with(
     speed: f64,
     setup: impl FnOnce(&mut VirtualDevice) + Send + 'static,
 ) -> io::Result<SimHandle> {
+    start_from(speed, MemFlash::default(), setup)
+}
+
+/// [`start_with`], the device reading its settings from `flash` at
+/// start-up (as a board with settings stored).
+pub fn start_from(
+    speed: f64,
+    flash: MemFlash,
+    setup: impl FnOnce(&mut VirtualDevice) + Send + 'static,
+) -> io::Result<SimHandle> {
     if !(speed.is_finite() && speed > 0.0 && speed <= 1000.0) {
         return Err(io::Error::other(format!(
             "simulation speed {speed}: must be in (0, 1000]"
@@ -128,7 +139,7 @@ pub fn start_with(
     let (ready_tx, ready_rx) = mpsc::channel();
     let thread = thread::Builder::new()
         .name("sim-controller".into())
-        .spawn(move || match VirtualDevice::new() {
+        .spawn(move || match VirtualDevice::with_flash(flash) {
             Ok(mut d) => {
                 setup(&mut d);
                 let _ = ready_tx.send(Ok(()));

@@ -8,9 +8,9 @@ use std::io::{Read, Write};
 use std::time::{Duration, Instant};
 
 use controller::alarm::Latch;
-use controller::config::Config;
+use controller::config::{Config, Key, SETTINGS};
 use controller::session::DeviceLink;
-use controller::settings::{Plan, CMD_CREDIT, MOTION_CONFIG};
+use controller::settings::{Plan, CMD_CREDIT};
 use fuzzy_core::scheduler::SchedulerConfig;
 use link::client::{Connection, Hello, SILENCE};
 use link::{
@@ -19,7 +19,7 @@ use link::{
 
 use crate::actions::{Action, Effect, Operator, StopKind};
 use crate::exit::{Exit, Failure};
-use crate::program::Program;
+use crate::program::{cmd_text, Item, Program};
 use crate::record::Recorder;
 use crate::view::{bits_f64, Eta, View};
 
@@ -103,12 +103,19 @@ impl Actions for crate::actions::Script {
     }
 }
 
-/// The settings check of the handshake.
+/// The settings check of the handshake: the controller's `$` settings are
+/// read ([`Handshake::config`]); its hello (sent at reset) must be what
+/// the controller crate, as the host was built, derives from them (the
+/// tick rate, the feed maximum, the planner's tangential acceleration
+/// from the axes' limits and the planner size): then the host's model of
+/// it (the schedule checked by `--verify`, the feed maximum of the ETA
+/// and the default F_max) is the controller's.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum SettingsCheck {
-    /// The controller's hello matches the host's settings.
+    /// The controller's hello is what its settings give on the host.
     Matched,
-    /// No hello came (the controller was already running): not checked.
+    /// No hello came (the controller was already running): its settings
+    /// were read, not checked against a hello.
     Unchecked,
     /// They differ (only with the check off; else the handshake fails).
     Differ(Vec<String>),
@@ -125,17 +132,40 @@ pub struct Handshake {
     pub machine: MachineStatus,
     /// The settings check.
     pub settings: SettingsCheck,
+    /// The controller's `$` settings, as read (`None`: it did not answer
+    /// every query; the check then assumes the defaults).
+    pub config: Option<Config>,
+    /// The settings that differ from the defaults, `$N=value (name, unit)`.
+    pub changed: Vec<String>,
     /// The credit of an empty command queue.
     pub credit_size: u32,
 }
 
+impl Handshake {
+    /// The controller's feed maximum ($201), mm/min: from its settings as
+    /// read, else its hello, else the host's default.
+    pub fn feed_max_mm_per_min(&self) -> f64 {
+        match (&self.config, self.hello) {
+            (Some(c), _) => c.get(Key::FeedMax) as f64,
+            (None, Some(h)) => h.feed_max_mm_per_min as f64,
+            (None, None) => crate::program::machine_feed_max(),
+        }
+    }
+}
+
 /// The hello a controller with the default settings sends (built with the
-/// host's `FW_*` settings, no `$` setting changed): the controller crate's
-/// own (`DeviceLink::hello`).
+/// host's `FW_*` settings, no `$` setting changed).
 pub fn expected_hello() -> Option<Hello> {
+    expected_hello_for(&Config::DEFAULT)
+}
+
+/// The hello a controller with the settings `config` sends, as the host's
+/// build of the controller crate computes it (`DeviceLink::hello`, the
+/// planner built from `config`).
+pub fn expected_hello_for(config: &Config) -> Option<Hello> {
     static LATCH: Latch = Latch::new();
-    let plan = Box::new(Plan::new(MOTION_CONFIG).ok()?);
-    match DeviceLink::new(&LATCH, Config::DEFAULT, StoreResult::Empty).hello(&plan) {
+    let plan = Box::new(Plan::new(config.motion_config()).ok()?);
+    match DeviceLink::new(&LATCH, *config, StoreResult::Empty).hello(&plan) {
         DeviceMsg::Hello {
             tick_hz,
             accel_mm_per_s2,
@@ -152,7 +182,18 @@ pub fn expected_hello() -> Option<Hello> {
     }
 }
 
-/// How a controller's settings differ from the host's, one line each.
+/// The settings of `config` that differ from the defaults, as
+/// `$N=value (name, unit)`.
+pub fn changed_settings(config: &Config) -> Vec<String> {
+    SETTINGS
+        .iter()
+        .zip(config.values().iter().zip(Config::DEFAULT.values()))
+        .filter(|(_, (v, d))| v != d)
+        .map(|(info, (v, _))| crate::machine::setting_line(info, *v))
+        .collect()
+}
+
+/// How a controller's hello differs from the one expected, one line each.
 pub fn settings_differences(got: &Hello, want: &Hello) -> Vec<String> {
     let mut d = Vec::new();
     let mut cmp = |what: &str, g: u32, w: u32, unit: &str| {
@@ -231,6 +272,14 @@ pub struct Summary {
     pub aborted: Option<DeviceMsg>,
     /// The alarm that ended the run: its cause and where the tool stopped.
     pub alarm: Option<(AlarmCode, [i64; 3])>,
+    /// Machine commands (spindle, coolant) sent in the path.
+    pub machine_sent: u32,
+    /// Of those, reported applied by the controller.
+    pub machine_applied: u32,
+    /// The first few applied at another point count than expected: (the
+    /// command's index in the program, the controller's count, the
+    /// host's).
+    pub machine_off_point: Vec<(usize, u32, u32)>,
 }
 
 /// How a run ended.
@@ -424,16 +473,22 @@ impl Session {
             Some(DeviceMsg::Hello { window_end, .. }) if hello.is_some() => window_end,
             _ => CMD_CREDIT,
         };
-        let settings = match (hello, expected_hello()) {
+        let config = self.read_config(opts.link_timeout)?;
+        let changed = config.as_ref().map_or_else(Vec::new, changed_settings);
+        let want = expected_hello_for(config.as_ref().unwrap_or(&Config::DEFAULT));
+        let settings = match (hello, want) {
             (Some(h), Some(want)) => {
-                let d = settings_differences(&h, &want);
+                let mut d = settings_differences(&h, &want);
+                if config.is_none() {
+                    d.push("its $ settings could not all be read: the defaults assumed".into());
+                }
                 if d.is_empty() {
                     SettingsCheck::Matched
                 } else if opts.check_settings {
                     return Err(Failure::new(
                         Exit::Controller,
                         format!(
-                            "the controller's settings differ from the host's ({}); the firmware and the sender must be built with the same FW_* settings and the controller's $ settings left at their defaults, or pass --no-check",
+                            "the controller's hello is not what its $ settings give on the host ({}): the firmware and the sender must be built from the same tree with the same FW_* settings, or pass --no-check",
                             d.join("; ")
                         ),
                     ));
@@ -448,8 +503,28 @@ impl Session {
             status,
             machine,
             settings,
+            config,
+            changed,
             credit_size,
         })
+    }
+
+    /// Every `$` setting of the controller, if it answers each and they
+    /// are valid together (`Config::from_values`); `None` if it refuses a
+    /// query (then nothing can be compared).
+    fn read_config(&mut self, timeout: Duration) -> Result<Option<Config>, Failure> {
+        let mut values = *Config::DEFAULT.values();
+        for (v, info) in values.iter_mut().zip(SETTINGS.iter()) {
+            let pick = |m: &DeviceMsg| match *m {
+                DeviceMsg::Setting { id, value } if id == info.id => Some(value),
+                _ => None,
+            };
+            match self.ask(&HostMsg::GetSetting { id: info.id }, timeout, pick, |_| {})? {
+                Ok(x) => *v = x,
+                Err(_) => return Ok(None),
+            }
+        }
+        Ok(Config::from_values(values))
     }
 
     /// A controlled stop of whatever the controller runs: abort, wait for
@@ -511,9 +586,26 @@ impl Session {
     }
 }
 
+/// The path after a machine command: it starts at the program's point
+/// `base` (repeated), its point count is the controller's
+/// `point_reached`, which still shows the previous path's count `stale`
+/// until the new path begins.
+#[derive(Clone, Copy, Debug)]
+struct Segment {
+    base: usize,
+    stale: u32,
+    begun: bool,
+}
+
 /// The state of one run.
 struct Run<'a> {
     program: &'a Program,
+    /// What goes between the path's start and end (`Program::items`).
+    items: Vec<Item>,
+    /// The point count each machine command should take effect at.
+    applied_at: Vec<u32>,
+    /// The path after the last machine command applied, if one was.
+    segment: Option<Segment>,
     opts: &'a Options,
     credit_size: u32,
     /// Host schedule by point index: (index in the path, feed bits).
@@ -541,14 +633,35 @@ struct Run<'a> {
 
 impl<'a> Run<'a> {
     fn new(program: &'a Program, hs: &Handshake, opts: &'a Options) -> Self {
-        let feed_max = hs.hello.map_or(crate::program::machine_feed_max(), |h| {
-            h.feed_max_mm_per_min as f64
-        });
+        let feed_max = hs.feed_max_mm_per_min();
         let host = program.host_schedule(opts.config);
-        let feeds: Vec<Option<i64>> = host.iter().map(|h| h.map(|x| x.1)).collect();
+        let feeds = program.feeds_by_point(&host);
         let eta = Eta::new(program.cum_time_s(&feeds, feed_max));
+        let items = program.items();
+        // The point count each machine command should find its path at:
+        // the points since the previous one (none: the same path).
+        let mut applied_at = vec![0; program.events.len()];
+        let mut n = 0;
+        let mut last = 0;
+        for it in &items {
+            match *it {
+                Item::Point { .. } => n += 1,
+                Item::Machine { index } => {
+                    if n > 0 {
+                        last = n;
+                    }
+                    if let Some(a) = applied_at.get_mut(index) {
+                        *a = last;
+                    }
+                    n = 0;
+                }
+            }
+        }
         Run {
             program,
+            items,
+            applied_at,
+            segment: None,
             opts,
             credit_size: hs.credit_size,
             host,
@@ -609,16 +722,31 @@ impl<'a> Run<'a> {
         )
     }
 
-    /// Points of our path reached, once the controller is on it.
+    /// Points of our program reached, once the controller is on it.
     fn reached(&self, s: &Status) -> Option<u32> {
-        self.started
-            .then_some(s.point_reached.min(self.program.len() as u32))
+        if !self.started {
+            return None;
+        }
+        let r = match self.segment {
+            None => s.point_reached,
+            Some(g) if !g.begun && s.point_reached == g.stale => g.base as u32 + 1,
+            Some(g) => (g.base as u32).saturating_add(s.point_reached),
+        };
+        Some(r.min(self.program.len() as u32))
+    }
+
+    /// The item with sequence number `seq` and its index.
+    fn item(&self, seq: u32) -> Option<(usize, Item)> {
+        let k = seq.wrapping_sub(self.first_point_seq) as usize;
+        self.items.get(k).map(|i| (k, *i))
     }
 
     /// The index of the program's point with sequence number `seq`.
     fn point_index(&self, seq: u32) -> Option<usize> {
-        let i = seq.wrapping_sub(self.first_point_seq) as usize;
-        (i < self.program.len()).then_some(i)
+        match self.item(seq)? {
+            (_, Item::Point { index, .. }) => Some(index),
+            _ => None,
+        }
     }
 
     fn ours(&self, seq: u32) -> bool {
@@ -634,6 +762,15 @@ impl<'a> Run<'a> {
             match self.program.line_of(i) {
                 Some(l) => format!("point {} (input line {l})", i + 1),
                 None => format!("point {}", i + 1),
+            }
+        } else if let Some((_, Item::Machine { index })) = self.item(seq) {
+            let e = self.program.events.get(index);
+            match e {
+                Some(e) if e.line > 0 => {
+                    format!("{} (input line {})", cmd_text(&e.cmd), e.line)
+                }
+                Some(e) => cmd_text(&e.cmd),
+                None => format!("sequence number {seq}"),
             }
         } else {
             format!("sequence number {seq}")
@@ -708,16 +845,31 @@ impl<'a> Run<'a> {
         let t = s.t_s();
         s.rec
             .path(t, self.start_seq, f_max, f_min, self.program.len());
-        for (i, p) in self.program.points.iter().enumerate() {
-            let bits = p.pos.to_bits();
-            let cap = p.feed_cap.map(|f| f.0.to_bits());
-            let seq = s.conn.client_mut().point(bits, cap);
-            s.rec.point(
-                seq,
-                bits,
-                cap,
-                self.program.lines.get(i).copied().unwrap_or(0),
-            );
+        for it in &self.items {
+            match *it {
+                Item::Point { index, repeat } => {
+                    let Some(p) = self.program.points.get(index) else {
+                        continue;
+                    };
+                    let bits = p.pos.to_bits();
+                    // A repeat starts a path: no block leads to it.
+                    let cap = p.feed_cap.filter(|_| !repeat).map(|f| f.0.to_bits());
+                    let seq = s.conn.client_mut().point(bits, cap);
+                    s.rec.point(
+                        seq,
+                        bits,
+                        cap,
+                        self.program.lines.get(index).copied().unwrap_or(0),
+                    );
+                }
+                Item::Machine { index } => {
+                    if let Some(e) = self.program.events.get(index) {
+                        let seq = s.conn.client_mut().machine(e.cmd);
+                        s.rec.machine(seq, &e.cmd, e.line);
+                        self.summary.machine_sent += 1;
+                    }
+                }
+            }
         }
         self.end_seq = s.conn.client_mut().end_path();
         self.t_start = Instant::now();
@@ -854,10 +1006,10 @@ impl<'a> Run<'a> {
                 feed_mm_per_min,
                 ..
             } => {
-                if let Some(i) = self.point_index(seq) {
+                if let Some((k, Item::Point { index: i, .. })) = self.item(seq) {
                     self.started = true;
                     self.summary.scheduled += 1;
-                    let host = self.host.get(i).copied().flatten();
+                    let host = self.host.get(k).copied().flatten();
                     if host != Some((index, feed_mm_per_min)) {
                         self.summary.feed_mismatches += 1;
                         if self.summary.mismatch_examples.len() < 5 {
@@ -874,8 +1026,31 @@ impl<'a> Run<'a> {
                 event: PlanEvent::EndPath,
                 ..
             } if self.started => self.end_planned = true,
+            DeviceMsg::Applied { seq, point, .. } => {
+                if let Some((_, Item::Machine { index })) = self.item(seq) {
+                    self.started = true;
+                    self.summary.machine_applied += 1;
+                    let want = self.applied_at.get(index).copied().unwrap_or(0);
+                    if point != want && self.summary.machine_off_point.len() < 5 {
+                        self.summary.machine_off_point.push((index, point, want));
+                    }
+                    let base = self.program.events.get(index).map_or(0, |e| e.after);
+                    self.segment = Some(Segment {
+                        base,
+                        stale: point,
+                        begun: false,
+                    });
+                    // The path's end that counts is the last one's.
+                    self.end_planned = false;
+                }
+            }
             DeviceMsg::Status(st) => {
                 self.last_status = st;
+                if let Some(g) = self.segment.as_mut() {
+                    if st.point_reached != g.stale {
+                        g.begun = true;
+                    }
+                }
                 if st.point_reached != self.stale_reached {
                     self.started = true;
                 }
@@ -979,7 +1154,8 @@ impl<'a> Run<'a> {
         }
         let rest = drained
             && st.motion == Motion::Idle
-            && st.point_reached as usize >= self.program.len()
+            && self.summary.machine_applied as usize >= self.program.events.len()
+            && self.reached(st).unwrap_or(0) as usize >= self.program.len()
             && (self.end_planned || !self.opts.reports);
         if !rest {
             self.rest_since = None;
@@ -1047,6 +1223,8 @@ mod tests {
             hello: None,
             status,
             machine: MachineStatus::default(),
+            config: None,
+            changed: Vec::new(),
             settings: SettingsCheck::Unchecked,
             credit_size: CMD_CREDIT,
         }

@@ -13,11 +13,13 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use controller::config::Config;
+use controller::store::{self, MemFlash};
 use host_sim::config::SimConfig;
 use link::{AlarmCode, DeviceMsg, HostMsg, Motion, PlanEvent, Status};
 use sender::actions::{Action, Script};
 use sender::exit::Exit;
-use sender::program::{self, Program};
+use sender::program::{self, Item, Program};
 use sender::record::Recorder;
 use sender::sim::{self, SimHandle};
 use sender::stream::{Actions, NoActions, Options, Outcome, Quiet, Session, SettingsCheck};
@@ -87,10 +89,27 @@ fn events(msgs: &[DeviceMsg]) -> Vec<PlanEvent> {
         .collect()
 }
 
+/// Points in the program's last path (after its last machine command, if
+/// any: they end the path).
+fn last_path_len(p: &Program) -> usize {
+    p.items()
+        .iter()
+        .rev()
+        .take_while(|i| matches!(i, Item::Point { .. }))
+        .count()
+}
+
 fn assert_done(o: &Outcome, p: &Program) {
     assert_eq!(o.exit, Exit::Done, "{}", o.message);
     let s = &o.summary;
-    assert_eq!(s.scheduled as usize, p.len(), "every point scheduled");
+    let points = p
+        .items()
+        .iter()
+        .filter(|i| matches!(i, Item::Point { .. }))
+        .count();
+    assert_eq!(s.scheduled as usize, points, "every point scheduled");
+    assert_eq!(s.machine_applied, s.machine_sent, "every machine command");
+    assert!(s.machine_off_point.is_empty(), "{:?}", s.machine_off_point);
     assert_eq!(s.feed_mismatches, 0, "{:?}", s.mismatch_examples);
     assert!(s.ended_on_last_point, "{:?}", s.last_status);
 }
@@ -144,7 +163,8 @@ fn without_reports_the_end_is_found_from_the_status_alone() {
         assert_eq!(out.summary.scheduled, 0, "{spec}: no reports");
         assert!(out.summary.ended_on_last_point, "{spec}");
         let st = out.summary.last_status.unwrap();
-        assert_eq!(st.point_reached as usize, p.len(), "{spec}");
+        assert_eq!(st.point_reached as usize, last_path_len(&p), "{spec}");
+        assert_eq!(out.summary.machine_applied as usize, p.events.len());
     }
 }
 
@@ -157,6 +177,46 @@ fn a_fresh_controllers_settings_are_checked() {
     assert_eq!(hs.settings, SettingsCheck::Matched);
     assert!(hs.hello.is_some());
     assert_done(&s.run(&p, &hs, &o, &mut NoActions, &mut Quiet), &p);
+}
+
+/// A board with `$` settings changed and stored (X acceleration, the
+/// machine's feed maximum): its hello differs from the defaults' but is
+/// what its settings give, so the check passes; the changed settings are
+/// listed, the default F_max and the ETA take its feed maximum, and the
+/// program runs with the host's schedule bit for bit.
+#[test]
+fn a_controller_with_changed_settings_is_checked_against_them() {
+    let mut flash = MemFlash::default();
+    let (_, _, mut st) = store::load(&flash);
+    let mut c = Config::DEFAULT;
+    c.set(120, 400).unwrap();
+    c.set(201, 4000).unwrap();
+    assert_eq!(st.save(&mut flash, &c), link::StoreResult::Saved);
+    let h = sim::start_from(8.0, flash, |_| {}).unwrap();
+    let mut s = session(&h, Recorder::none());
+    let o = opts();
+    let hs = s.handshake(&o).unwrap();
+    let hello = hs.hello.expect("fresh from reset");
+    assert_ne!(
+        Some(hello),
+        sender::stream::expected_hello(),
+        "not the defaults' hello"
+    );
+    assert_eq!(hs.settings, SettingsCheck::Matched);
+    assert_eq!(hs.config, Some(c));
+    assert_eq!(hs.changed.len(), 2, "{:?}", hs.changed);
+    assert!(hs.changed[0].starts_with("$120=400 "), "{:?}", hs.changed);
+    assert_eq!(hs.feed_max_mm_per_min(), 4000.0);
+    let p = load("infinity");
+    assert_done(&s.run(&p, &hs, &o, &mut NoActions, &mut Quiet), &p);
+    // A hello that does not follow from the settings (another build) is
+    // refused.
+    let other = link::client::Hello {
+        accel_mm_per_s2: hello.accel_mm_per_s2 + 1,
+        ..hello
+    };
+    let d = sender::stream::settings_differences(&other, &hello);
+    assert_eq!(d.len(), 1, "{d:?}");
 }
 
 #[test]
@@ -490,4 +550,46 @@ fn a_lost_override_is_sent_again() {
     let o = run(&mut s, &p, &mut script);
     assert_done(&o, &p);
     assert_eq!(o.summary.last_status.unwrap().override_percent, 150);
+}
+
+/// Spindle and coolant words of a G-code program go in the path as machine
+/// commands, in order: each ends the path, takes effect with the tool at
+/// rest at its point (the controller's `Applied`, at the host's point
+/// count), and the rest runs as new paths; every feed is still the host's
+/// schedule bit for bit (the host schedules the same paths), the tool ends
+/// on the last point, and the machine is off again at the end.
+#[test]
+fn spindle_and_coolant_words_take_effect_in_order_at_their_points() {
+    let dir = temp("words");
+    std::fs::create_dir_all(&dir).unwrap();
+    let f = dir.join("words.ngc");
+    std::fs::write(
+        &f,
+        "G21 G90 G17\nM3 S8000\nM8\nG1 X5 F2000\nG1 X5 Y5\nS9000\nG1 X0 Y5\nG2 X0 Y0 I0 J-2.5\nM9\nM5\n",
+    )
+    .unwrap();
+    let p = load(&f.to_string_lossy());
+    let cmds: Vec<String> = p.events.iter().map(|e| program::cmd_text(&e.cmd)).collect();
+    assert_eq!(cmds, ["M3 S8000", "M8", "M3 S9000", "M9", "M5"]);
+    let h = sim::start(10.0).unwrap();
+    let rec = temp("words.jsonl");
+    let mut s = session(&h, Recorder::create(&rec).unwrap());
+    let o = run(&mut s, &p, &mut NoActions);
+    s.finish_record().unwrap();
+    assert_done(&o, &p);
+    assert_eq!(o.summary.machine_sent, 5);
+    let applied: Vec<link::MachineCmd> = received(&rec)
+        .iter()
+        .filter_map(|m| match m {
+            DeviceMsg::Applied { cmd, .. } => Some(*cmd),
+            _ => None,
+        })
+        .collect();
+    let want: Vec<link::MachineCmd> = p.events.iter().map(|e| e.cmd).collect();
+    assert_eq!(applied, want, "applied in program order");
+    let ms = s.machine_within(Duration::from_secs(2)).unwrap();
+    assert_eq!(ms.spindle, link::SpindleDir::Off);
+    assert!(!ms.flood && !ms.mist);
+    let text = sender::cli::summary_text(&o).join("\n");
+    assert!(text.contains("5 spindle/coolant commands sent"), "{text}");
 }

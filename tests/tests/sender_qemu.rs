@@ -36,7 +36,7 @@ use std::time::{Duration, Instant};
 
 use controller::settings::MOTION_CONFIG;
 use fuzzy_core::scheduler::PathPoint;
-use link::{DeviceMsg, Motion, PlanEvent, Status};
+use link::{DeviceMsg, MachineCmd, Motion, PlanEvent, SpindleDir, Status};
 use system_tests::firmware::{firmware_elf, on_grid, qemu_available, repo_root, PlanLog};
 use system_tests::planned;
 
@@ -223,6 +223,8 @@ struct Record {
     f_min_bits: i64,
     /// (seq, position bits, feed cap bits) in order.
     points: Vec<(u32, [i64; 3], Option<i64>)>,
+    /// Machine commands of the path: (seq, what) in order.
+    machine: Vec<(u32, MachineCmd)>,
     rx: Vec<DeviceMsg>,
 }
 
@@ -241,6 +243,11 @@ fn read_record(path: &Path) -> Record {
                 p["seq"].as_u64().expect("seq") as u32,
                 pos,
                 p["cap_bits"].as_i64(),
+            ));
+        } else if let Some(m) = v.get("machine") {
+            r.machine.push((
+                m["seq"].as_u64().expect("seq") as u32,
+                serde_json::from_value(m["cmd"].clone()).expect("a MachineCmd"),
             ));
         } else if let Some(m) = v.get("rx") {
             r.rx.push(serde_json::from_value(m.clone()).expect("a DeviceMsg"));
@@ -289,19 +296,46 @@ impl Record {
 /// and position at every status, and `extra` statuses taken after the
 /// run), within every limit. Returns the replay.
 fn verify(name: &str, file: &Path, rec: &Record, extra: &[Status]) -> planned::Replayed {
-    // As a sender streams them: on the link's grid.
-    let host: Vec<PathPoint> = on_grid(
-        &host_sim::inputs::load(file, &host_sim::config::SimConfig::default().gcode)
-            .expect("the host reads the file")
-            .path_points(),
-    );
-    assert_eq!(rec.points.len(), host.len(), "{name}: points sent");
-    for (i, ((seq, pos, cap), h)) in rec.points.iter().zip(&host).enumerate() {
-        assert_eq!(
-            *seq,
-            rec.start_seq + 1 + i as u32,
-            "{name}: seq of point {i}"
-        );
+    // As a sender streams them: on the link's grid; the spindle and
+    // coolant words in order with them, each after its point, and after
+    // those the point again (the next path's start, no feed cap).
+    let read = host_sim::inputs::load(file, &host_sim::config::SimConfig::default().gcode)
+        .expect("the host reads the file");
+    let host: Vec<PathPoint> = on_grid(&read.path_points());
+    let mut want: Vec<PathPoint> = Vec::new();
+    let mut want_machine = Vec::new();
+    for (i, h) in host.iter().enumerate() {
+        want.push(*h);
+        let here: Vec<_> = read.events.iter().filter(|e| e.0 == i).collect();
+        for (_, _, e) in &here {
+            want_machine.push(match *e {
+                host_sim::toolpath::MachineEvent::Spindle { dir, rpm } => {
+                    let dir = match dir {
+                        host_sim::toolpath::SpindleDir::Off => SpindleDir::Off,
+                        host_sim::toolpath::SpindleDir::Cw => SpindleDir::Cw,
+                        host_sim::toolpath::SpindleDir::Ccw => SpindleDir::Ccw,
+                    };
+                    let speed_rpm = if dir == SpindleDir::Off {
+                        0
+                    } else {
+                        rpm.round() as u32
+                    };
+                    MachineCmd::Spindle { dir, speed_rpm }
+                }
+                host_sim::toolpath::MachineEvent::Coolant { flood, mist } => {
+                    MachineCmd::Coolant { flood, mist }
+                }
+            });
+        }
+        if !here.is_empty() && i + 1 < host.len() {
+            want.push(PathPoint {
+                feed_cap: None,
+                ..*h
+            });
+        }
+    }
+    assert_eq!(rec.points.len(), want.len(), "{name}: points sent");
+    for (i, ((_, pos, cap), h)) in rec.points.iter().zip(&want).enumerate() {
         assert_eq!(*pos, h.pos.to_bits(), "{name}: point {i} sent as read");
         assert_eq!(
             *cap,
@@ -309,10 +343,54 @@ fn verify(name: &str, file: &Path, rec: &Record, extra: &[Status]) -> planned::R
             "{name}: cap of point {i}"
         );
     }
+    let sent_machine: Vec<MachineCmd> = rec.machine.iter().map(|m| m.1).collect();
+    assert_eq!(sent_machine, want_machine, "{name}: machine commands sent");
+    // Every path command in order from the start: points and machine
+    // commands take consecutive sequence numbers.
+    let mut seqs_all: Vec<u32> = rec
+        .points
+        .iter()
+        .map(|p| p.0)
+        .chain(rec.machine.iter().map(|m| m.0))
+        .collect();
+    seqs_all.sort_unstable();
+    assert!(
+        seqs_all
+            .iter()
+            .enumerate()
+            .all(|(k, q)| *q == rec.start_seq + 1 + k as u32),
+        "{name}: sequence numbers"
+    );
+    // Each machine command took effect (in order) with the tool at rest.
+    let applied: Vec<(u32, MachineCmd)> = rec
+        .rx
+        .iter()
+        .filter_map(|m| match *m {
+            DeviceMsg::Applied { seq, cmd, .. } => Some((seq, cmd)),
+            _ => None,
+        })
+        .collect();
+    assert!(
+        rec.machine.starts_with(&applied),
+        "{name}: applied in order: {applied:?}"
+    );
     let config = controller::command::config_from_link(rec.f_max_bits, rec.f_min_bits)
         .expect("the path's settings");
-    let seqs: Vec<u32> = rec.points.iter().map(|p| p.0).collect();
-    let points = planned::schedule(config, &host, &seqs);
+    // A machine command ends the path: each path is scheduled on its own.
+    let mut points = std::collections::HashMap::new();
+    let mut from = 0;
+    for k in 1..=rec.points.len() {
+        let cut = k == rec.points.len()
+            || rec
+                .machine
+                .iter()
+                .any(|m| m.0 > rec.points[k - 1].0 && m.0 < rec.points[k].0);
+        if cut {
+            let seqs: Vec<u32> = rec.points[from..k].iter().map(|p| p.0).collect();
+            points.extend(planned::schedule(config, &want[from..k], &seqs));
+            from = k;
+        }
+    }
     let mut scheduled = 0;
     for m in &rec.rx {
         if let DeviceMsg::Scheduled {
@@ -353,8 +431,12 @@ fn verify(name: &str, file: &Path, rec: &Record, extra: &[Status]) -> planned::R
     let p = planned::peaks(&rep.ticks, &MOTION_CONFIG, rep.accel_mm_s2);
     planned::check_limits(name, &p, &MOTION_CONFIG);
     println!(
-        "{name}: {} points sent as read, {scheduled} feeds and {} setpoints bit-exact with the host ({n} statuses)",
+        "{name}: {} points ({} read, {} again after machine commands) and {} machine commands sent as read, {} applied; {scheduled} feeds and {} setpoints bit-exact with the host ({n} statuses)",
+        want.len(),
         host.len(),
+        want.len() - host.len(),
+        rec.machine.len(),
+        applied.len(),
         rep.ticks.len()
     );
     rep
@@ -392,6 +474,7 @@ fn a_gcode_program_runs_to_its_end_bit_exact_with_the_host() {
         "settings match the host's",
         "done: ",
         "every feed equal to the host's schedule bit for bit",
+        "machine: 2 spindle/coolant commands sent in the path, 2 applied by the controller, each with the tool at rest at its point",
     ] {
         assert!(r.stderr.contains(want), "{want:?} not in:\n{}", r.stderr);
     }
