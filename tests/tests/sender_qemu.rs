@@ -22,7 +22,13 @@
 //!   exactly on its last point;
 //! - a refused G-code line: exit 3, `FILE:LINE: message`, nothing sent
 //!   (the sender never connects);
-//! - `monitor` prints status lines until Ctrl-C, exit 0.
+//! - `monitor` prints status lines until Ctrl-C, exit 0;
+//! - a scripted e-stop mid-path: the firmware's alarm, exit 7 with its
+//!   cause and position; the next program refused in alarm (exit 7,
+//!   nothing sent); `status` names the alarm; `unlock` (exit 0); a `$`
+//!   setting written (in force; QEMU's flash does not keep it: exit 5 and
+//!   said so) and read back; `home` refused with homing off (exit 5); a
+//!   program then runs (exit 0) with the changed setting listed.
 //!
 //! Needs `qemu-system-arm` (skipped without it unless
 //! `FUZZY_REQUIRE_QEMU=1`). Every QEMU and sender run has a deadline.
@@ -764,4 +770,103 @@ fn a_refused_gcode_line_is_named_and_nothing_is_sent() {
         );
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn an_estop_is_the_alarm_until_unlocked_and_settings_are_read_and_written() {
+    if !qemu_available() {
+        return;
+    }
+    let _slot = QEMU_SLOT.lock().unwrap_or_else(|e| e.into_inner());
+    let q = Qemu::start("estop");
+    let script = temp("estop.txt");
+    std::fs::write(&script, "at point 300: estop\n").expect("script");
+    let rec_path = temp("estop.jsonl");
+    let file = repo_root().join("tests/data/shapes/trident.csv");
+    let mut a = q.link_args();
+    a.extend([
+        "send".into(),
+        file.display().to_string(),
+        "--script".into(),
+        script.display().to_string(),
+        "--record".into(),
+        rec_path.display().to_string(),
+    ]);
+    let r = sender(&a, Duration::from_secs(120));
+    assert_eq!(r.code(), Some(7), "alarm; stderr:\n{}", r.stderr);
+    assert!(
+        r.stderr.contains("ALARM: e-stop from the host") && r.stderr.contains("unlock"),
+        "{}",
+        r.stderr
+    );
+    let rec = read_record(&rec_path);
+    let alarm = rec.rx.iter().find_map(|m| match *m {
+        DeviceMsg::Alarm { code, pos_mm, .. } => Some((code, pos_mm)),
+        _ => None,
+    });
+    let (code, pos) = alarm.expect("the firmware reported the alarm");
+    assert_eq!(code, link::AlarmCode::EStopLink);
+    let st = status_json(&q);
+    assert_eq!(st.motion, Motion::Alarm);
+    assert_eq!(st.pos_mm, pos, "stopped where the report says");
+    let pocket = repo_root().join("tests/data/gcode/pocket.ngc");
+    let mut send = q.link_args();
+    send.extend(["send".into(), pocket.display().to_string()]);
+    let r = sender(&send, Duration::from_secs(60));
+    assert_eq!(r.code(), Some(7), "refused in alarm; stderr:\n{}", r.stderr);
+    assert!(r.stderr.contains("nothing was sent"), "{}", r.stderr);
+    let run = |args: &[&str]| {
+        let mut a = q.link_args();
+        a.extend(strings(args));
+        sender(&a, Duration::from_secs(60))
+    };
+    let r = run(&["status"]);
+    assert_eq!(r.code(), Some(0), "{}", r.stderr);
+    assert!(
+        r.stdout.contains("state: Alarm") && r.stdout.contains("ALARM: e-stop from the host"),
+        "{}",
+        r.stdout
+    );
+    let r = run(&["unlock"]);
+    assert_eq!(r.code(), Some(0), "unlock; stderr:\n{}", r.stderr);
+    assert!(r.stderr.contains("unlocked"), "{}", r.stderr);
+    assert_eq!(status_json(&q).motion, Motion::Idle);
+    // A setting: in force at once; QEMU's flash model does not keep it.
+    let r = run(&["settings", "set", "120", "1500"]);
+    assert!(
+        r.stdout.starts_with("$120=1500 (X acceleration"),
+        "{}",
+        r.stdout
+    );
+    assert!(
+        r.code() == Some(0) || (r.code() == Some(5) && r.stderr.contains("flash")),
+        "set; {:?} stderr:\n{}",
+        r.code(),
+        r.stderr
+    );
+    println!(
+        "settings set on QEMU: exit {:?}: {}",
+        r.code(),
+        r.stderr.trim()
+    );
+    let r = run(&["settings", "get", "$120"]);
+    assert_eq!(r.code(), Some(0), "{}", r.stderr);
+    assert!(r.stdout.starts_with("$120=1500 "), "{}", r.stdout);
+    let r = run(&["settings"]);
+    assert_eq!(r.code(), Some(0), "{}", r.stderr);
+    assert_eq!(r.stdout.lines().count(), controller::config::SETTINGS.len());
+    let r = run(&["home"]);
+    assert_eq!(r.code(), Some(5), "home with $22=0; stderr:\n{}", r.stderr);
+    assert!(r.stderr.contains("$22=0"), "{}", r.stderr);
+    // A program runs again, its changed setting listed.
+    let r = sender(&send, Duration::from_secs(120));
+    assert_eq!(r.code(), Some(0), "after unlock; stderr:\n{}", r.stderr);
+    assert!(r.stderr.contains("$120=1500"), "{}", r.stderr);
+    assert!(r.stderr.contains("done: "), "{}", r.stderr);
+    println!(
+        "estop: exit 7 at X{:.3} Y{:.3}, unlock, $120 written and read back, pocket after it in {:.1} s",
+        pos[0] as f64 / 4294967296.0,
+        pos[1] as f64 / 4294967296.0,
+        r.took.as_secs_f64()
+    );
 }
