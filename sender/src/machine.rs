@@ -260,7 +260,6 @@ fn refused(what: &str, code: ErrorCode) -> Failure {
         ErrorCode::InputActive => " (the e-stop input is active: release it first)",
         ErrorCode::UnknownSetting => " (no such setting)",
         ErrorCode::OutOfRange => " (out of range, or invalid with the other settings: nothing changed)",
-        ErrorCode::Rejected => "",
         _ => "",
     };
     Failure::new(
