@@ -63,6 +63,9 @@ pub fn alarm_text(code: AlarmCode) -> String {
             axis(a)
         ),
         AlarmCode::HomingAborted => "homing interrupted (Grbl ALARM:6)".into(),
+        AlarmCode::Fault { pc } => format!(
+            "the firmware restarted after a hard fault at 0x{pc:08x} (a bug: please report it with this address and the firmware build)"
+        ),
     }
 }
 
