@@ -30,6 +30,7 @@ fw() { (cd firmware && env -u CARGO_TARGET_DIR "$@"); }
 step "firmware: release build for thumbv7em-none-eabihf, lints"
 fw cargo build --release -q
 fw cargo clippy --release -q -- -D warnings
+fw cargo clippy --release -q --no-default-features --features usb -- -D warnings
 
 step "firmware: no reachable panic (panic-never link check)"
 python3 firmware/scripts/check.py panic

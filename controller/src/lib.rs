@@ -18,6 +18,7 @@
 //! | [`feeder`] | commands into the fuzzy scheduler (first stage) |
 //! | [`planning`] | scheduled points into the velocity planner, setpoints out, the feeding policy (second stage) |
 //! | [`controls`] | hold, resume, override and Njiri et al.'s force loop |
+//! | [`fault`] | the last hard fault, kept across the reset and reported at the next boot |
 //! | [`tick`] | the tick's work: next setpoint to the step output, counters |
 //! | [`stepper`] | the step output the tick drives: plans to a timer-driven engine, or the engine run in software (QEMU) |
 //! | [`steps`] | step generation with real timing: per-tick plans of exact step times, the engine a step timer's interrupt runs (pulse width, low time, DIR setup, polarity, per-axis steps/mm), lag reported |
@@ -48,6 +49,7 @@ pub mod checksum;
 pub mod command;
 pub mod config;
 pub mod controls;
+pub mod fault;
 pub mod feeder;
 pub mod guard;
 pub mod homing;

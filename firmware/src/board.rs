@@ -723,3 +723,24 @@ impl Watchdog {
         }
     }
 }
+
+/// The AHB clock (HCLK = SYSCLK), Hz: the USB core's clock.
+#[cfg(feature = "usb")]
+pub const AHB_HZ: u32 = SYSCLK_HZ;
+
+/// PA11/PA12 to the OTG FS core (alternate function 10, high speed).
+#[cfg(feature = "usb")]
+pub fn usb_pins() {
+    use crate::boards::pa;
+    alternate(pa(11), 10, true);
+    alternate(pa(12), 10, true);
+}
+
+/// The OTG FS core's clock on (RCC_AHB2ENR.OTGFSEN), and the core reset
+/// (RCC_AHB2RSTR.OTGFSRST).
+#[cfg(feature = "usb")]
+pub fn usb_clock_on() {
+    reg::modify(reg::RCC + 0x34, |r| r | 1 << 7);
+    reg::modify(reg::RCC + 0x14, |r| r | 1 << 7);
+    reg::modify(reg::RCC + 0x14, |r| r & !(1 << 7));
+}

@@ -8,6 +8,7 @@
 //! | [`boards`] | one pin map per board (QEMU, STM32F4-Discovery, BTT SKR 2) |
 //! | [`measure`] | SysTick as tick timer and cycle counter, stack high-water mark |
 //! | [`step_output`] | the step engine wired to the step timer (its interrupt), or run by the tick (QEMU) |
+//! | `usb` | (feature `usb`) the link as a USB CDC-ACM serial port on OTG FS |
 #![no_std]
 #![deny(missing_docs)]
 
@@ -15,11 +16,22 @@ pub mod board;
 pub mod boards;
 pub mod measure;
 pub mod step_output;
+#[cfg(feature = "usb")]
+pub mod usb;
 
 #[cfg(feature = "qemu")]
 mod logger;
 #[cfg(all(feature = "board", not(feature = "qemu")))]
 use defmt_rtt as _;
+
+/// Where the link's replies go: USART1, or with feature `usb` the USB
+/// serial port (which also brings the bytes in).
+#[cfg(not(feature = "usb"))]
+pub type LinkPort = board::UsartTx;
+/// Where the link's replies go: USART1, or with feature `usb` the USB
+/// serial port (which also brings the bytes in).
+#[cfg(feature = "usb")]
+pub type LinkPort = usb::UsbPort;
 
 defmt::timestamp!("{=u32:us}", measure::uptime_us());
 
@@ -63,10 +75,32 @@ fn panic(_: &core::panic::PanicInfo) -> ! {
     unsafe { panic_path_found() }
 }
 
+/// The last hard fault, in RAM the start-up code leaves alone (`.uninit`):
+/// read and cleared by [`take_fault`] at the next boot.
+#[link_section = ".uninit.FAULT"]
+static mut FAULT: core::mem::MaybeUninit<[u32; 3]> = core::mem::MaybeUninit::uninit();
+
 /// A hard fault: the drivers and the spindle off at once (the step output
-/// stops with the core), then stop.
+/// stops with the core), where it happened recorded for the next boot,
+/// then stop (the watchdog resets the chip).
 #[cortex_m_rt::exception]
-unsafe fn HardFault(_frame: &cortex_m_rt::ExceptionFrame) -> ! {
+unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
     board::fault_outputs_off();
+    let r = controller::fault::FaultRecord::at(frame.pc());
+    // SAFETY: the fault handler is the only writer; nothing else runs.
+    unsafe { core::ptr::write_volatile(core::ptr::addr_of_mut!(FAULT).cast(), r) };
     fail()
+}
+
+/// The fault recorded before this boot, if any (then cleared): the alarm
+/// to start in.
+pub fn take_fault() -> Option<link::AlarmCode> {
+    // SAFETY: called once from `init`, before any interrupt runs; three
+    // words of RAM, any bit pattern valid.
+    unsafe {
+        let p = core::ptr::addr_of_mut!(FAULT).cast::<[u32; 3]>();
+        let words = core::ptr::read_volatile(p);
+        core::ptr::write_volatile(p, [0; 3]);
+        controller::fault::FaultRecord::from_words(words).alarm()
+    }
 }

@@ -7,6 +7,7 @@
 //! | `step` | TIM2 compare 1 (board only) | 4 (highest) | the batch of step/dir edges due now to the pins, then the next batch from the step engine and the compare set to its time; a stop the tick asked for first ([`fuzzy_firmware::step_output`]) |
 //! | `tick` | SysTick (default 1 kHz) | 3 | inputs, alarms and stops ([`controller::guard`]), next setpoint from the ring to the step output: the tick's step plan queued to the engine ([`controller::tick`]; under QEMU the engine itself run over the tick's window), driver enable |
 //! | `link_rx` | USART1 receive | 2 | bytes → frames → the link session ([`controller::session`]) |
+//! | `usb` | OTG FS (feature `usb`) | 2 | the USB stack; its received bytes to `link_rx` (`fuzzy_firmware::usb`) |
 //! | `idle` | background | 0 | watchdog, transmit, then one background pass ([`controller::background`]) |
 //!
 //! Queues (`controller::ring`, lock-free): commands link → idle (their free
@@ -42,12 +43,11 @@ mod app {
     use controller::store::{self, Store};
     use controller::tick::TickExecutor;
     use fuzzy_core::units::Point3Mm;
-    use fuzzy_firmware::board::{
-        self, Enable, Inputs, Outputs, SettingsFlash, UsartRx, UsartTx, Watchdog,
-    };
+    use fuzzy_firmware::board::{self, Enable, Inputs, Outputs, SettingsFlash, UsartRx, Watchdog};
     use fuzzy_firmware::measure::{self, StackProbe};
     #[allow(unused_imports)] // (RTIC names the types of cfg'd resources)
     use fuzzy_firmware::step_output::{self, StepIsr, Steps};
+    use fuzzy_firmware::LinkPort;
     use link::{AlarmCode, DeviceMsg, FrameReader, HostMsg, StoreResult};
 
     /// The spindle, coolant and settings store, as the background drives
@@ -77,7 +77,7 @@ mod app {
     struct Shared {
         link: DeviceLink,
         exec: TickExecutor,
-        port: UsartTx,
+        port: LinkPort,
     }
 
     #[local]
@@ -112,6 +112,11 @@ mod app {
         let mut b = board::init(cx.device);
         let latch: &'static Latch = cx.local.latch_slot;
         let (config, stored, store) = store::load(&b.flash);
+        // A fault before this boot names the alarm (the watchdog reset
+        // that followed it is its consequence).
+        if let Some(code) = fuzzy_firmware::take_fault() {
+            latch.trip(code);
+        }
         if b.watchdog_reset {
             latch.trip(AlarmCode::Watchdog);
         }
@@ -161,7 +166,7 @@ mod app {
             Shared {
                 link,
                 exec: TickExecutor::new(Point3Mm::ORIGIN),
-                port: b.tx,
+                port: link_port(b.tx),
             },
             Local {
                 sp_rx,
@@ -187,6 +192,34 @@ mod app {
             },
             init::Monotonics(),
         )
+    }
+
+    #[cfg(not(feature = "usb"))]
+    fn link_port(tx: board::UsartTx) -> LinkPort {
+        tx
+    }
+
+    #[cfg(feature = "usb")]
+    fn link_port(_: board::UsartTx) -> LinkPort {
+        match fuzzy_firmware::usb::UsbPort::take() {
+            Some(p) => p,
+            None => {
+                defmt::error!("USB set-up failed");
+                fuzzy_firmware::fail()
+            }
+        }
+    }
+
+    /// The next byte from the host.
+    #[cfg(not(feature = "usb"))]
+    fn next_byte(rx: &mut UsartRx, _: &mut impl rtic::Mutex<T = LinkPort>) -> Option<u8> {
+        rx.read()
+    }
+
+    /// The next byte from the host.
+    #[cfg(feature = "usb")]
+    fn next_byte(_: &mut UsartRx, port: &mut impl rtic::Mutex<T = LinkPort>) -> Option<u8> {
+        port.lock(|p| p.read())
     }
 
     /// The planner, built in its static slot (6.5 KB: one temporary on
@@ -228,7 +261,7 @@ mod app {
     #[task(binds = USART1, priority = 2, local = [rx, reader, cmd_tx], shared = [link, exec, port])]
     fn link_rx(cx: link_rx::Context) {
         let (local, mut sh) = (cx.local, cx.shared);
-        while let Some(byte) = local.rx.read() {
+        while let Some(byte) = next_byte(local.rx, &mut sh.port) {
             let Some(frame) = local.reader.push::<HostMsg>(byte) else {
                 continue;
             };
@@ -242,6 +275,15 @@ mod app {
             }
             (&mut sh.link, &mut sh.port).lock(|l, p| l.tx.drain(|b| p.try_write(b)));
         }
+    }
+
+    /// The USB stack (feature `usb`): enumeration and transfers, then the
+    /// received bytes to `link_rx` (pended: the same path as the USART's).
+    #[cfg(feature = "usb")]
+    #[task(binds = OTG_FS, priority = 2, shared = [port])]
+    fn usb(mut cx: usb::Context) {
+        cx.shared.port.lock(|p| p.poll());
+        rtic::pend(stm32f4::stm32f405::Interrupt::USART1);
     }
 
     /// Background: watchdog, transmit, one pass, sleep when there is

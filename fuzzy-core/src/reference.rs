@@ -12,12 +12,16 @@
 //!   Gaussian/bell outputs or on request, a sampled sum.
 //! - [`schedule`]: the whole Lin et al. pipeline (curvature, window, fuzzy
 //!   feed, average, caps) in `f64`.
+//! - [`topp`]: the time-optimal traversal of a toolpath under the true
+//!   per-axis limits, the yardstick of the velocity planner.
 
 use crate::fuzzy::{
     AndMethod, Antecedent, Connective, Implication, Inference, MembershipFn, OrMethod,
     SugenoOutput, SystemDef,
 };
 use crate::scheduler::SchedulerConfig;
+
+pub mod topp;
 
 /// Curvature magnitude at `p2` of `p1 → p2 → p3` (1/mm) by eq. 4-9; `None`
 /// for coincident points. Reversals give `f64::INFINITY`.

@@ -13,12 +13,19 @@ use crate::machine::MachineConfig;
 use crate::methods::MethodSettings;
 use crate::planner::PlannerSettings;
 
+/// Default of `max_motion_samples`: 2.8 h of motion at 1 ms, about 1.5 GB
+/// for the commanded and actual positions and the measures taken of them.
+pub const DEFAULT_MAX_MOTION_SAMPLES: u64 = 10_000_000;
+
 /// A whole configuration file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SimConfig {
     /// Interpolation period Ts, ms (FANUC 30i: 1 ms).
     pub interpolation_period_ms: f64,
+    /// Most samples (interpolation periods) one simulated motion may have;
+    /// a run that would need more is refused before it allocates.
+    pub max_motion_samples: u64,
     /// The simulated machine.
     pub machine: MachineConfig,
     /// The scheduling methods' settings.
@@ -34,6 +41,7 @@ impl Default for SimConfig {
     fn default() -> Self {
         SimConfig {
             interpolation_period_ms: 1.0,
+            max_motion_samples: DEFAULT_MAX_MOTION_SAMPLES,
             machine: MachineConfig::default(),
             methods: MethodSettings::default(),
             gcode: GcodeSettings::default(),
@@ -74,6 +82,10 @@ impl SimConfig {
                 && self.interpolation_period_ms >= 0.01
                 && self.interpolation_period_ms <= 100.0,
             "interpolation_period_ms must be in [0.01, 100]"
+        );
+        anyhow::ensure!(
+            self.max_motion_samples >= 1000,
+            "max_motion_samples must be at least 1000"
         );
         self.machine.validate(self.ts_s())?;
         self.planner.validate(self.ts_s())?;

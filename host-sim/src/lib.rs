@@ -27,6 +27,7 @@ pub mod machine;
 pub mod methods;
 pub mod metrics;
 pub mod nurbs;
+pub mod output;
 pub mod path_csv;
 pub mod planner;
 pub mod plots;

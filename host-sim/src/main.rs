@@ -69,7 +69,11 @@ enum Command {
 }
 
 fn main() -> std::process::ExitCode {
-    let result = match Cli::parse().command {
+    let cli = Cli::parse();
+    if let Err(e) = host_sim::output::remove_on_interrupt() {
+        eprintln!("warning: {e:#}");
+    }
+    let result = match cli.command {
         Command::Compare(a) => lin2021::command::run(&a),
         Command::Simulate(a) => cli::simulate::run(&a),
         Command::Plan(a) => cli::plan::run(&a),

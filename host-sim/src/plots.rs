@@ -24,6 +24,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use crate::methods::Method;
+use crate::output;
 use crate::simulate::{Prepared, RunResult};
 
 /// Most points drawn per series.
@@ -276,17 +277,19 @@ pub fn write_figure(stem: &Path, fig: &Figure, formats: Formats) -> Result<()> {
     ensure_font()?;
     for ext in formats.extensions() {
         let path = stem.with_extension(ext);
-        if *ext == "png" {
-            let root = BitMapBackend::new(&path, fig.size).into_drawing_area();
-            draw_figure(&root, fig)?;
-            root.present()
-                .map_err(|e| anyhow!("writing {}: {e}", path.display()))?;
-        } else {
-            let root = SVGBackend::new(&path, fig.size).into_drawing_area();
-            draw_figure(&root, fig)?;
-            root.present()
-                .map_err(|e| anyhow!("writing {}: {e}", path.display()))?;
-        }
+        output::write_by_path(&path, |tmp| {
+            if *ext == "png" {
+                let root = BitMapBackend::new(tmp, fig.size).into_drawing_area();
+                draw_figure(&root, fig)?;
+                root.present()
+                    .map_err(|e| anyhow!("writing {}: {e}", path.display()))
+            } else {
+                let root = SVGBackend::new(tmp, fig.size).into_drawing_area();
+                draw_figure(&root, fig)?;
+                root.present()
+                    .map_err(|e| anyhow!("writing {}: {e}", path.display()))
+            }
+        })?;
     }
     Ok(())
 }
@@ -589,17 +592,19 @@ pub fn write_pareto(
     let size = (1000, 700);
     for ext in formats.extensions() {
         let path = stem.with_extension(ext);
-        if *ext == "png" {
-            let root = BitMapBackend::new(&path, size).into_drawing_area();
-            pareto_draw(&root, title, curves)?;
-            root.present()
-                .map_err(|e| anyhow!("writing {}: {e}", path.display()))?;
-        } else {
-            let root = SVGBackend::new(&path, size).into_drawing_area();
-            pareto_draw(&root, title, curves)?;
-            root.present()
-                .map_err(|e| anyhow!("writing {}: {e}", path.display()))?;
-        }
+        output::write_by_path(&path, |tmp| {
+            if *ext == "png" {
+                let root = BitMapBackend::new(tmp, size).into_drawing_area();
+                pareto_draw(&root, title, curves)?;
+                root.present()
+                    .map_err(|e| anyhow!("writing {}: {e}", path.display()))
+            } else {
+                let root = SVGBackend::new(tmp, size).into_drawing_area();
+                pareto_draw(&root, title, curves)?;
+                root.present()
+                    .map_err(|e| anyhow!("writing {}: {e}", path.display()))
+            }
+        })?;
     }
     Ok(())
 }

@@ -64,6 +64,7 @@ pub fn run_schedule(
 ) -> Result<RunResult> {
     let path = &prepared.path;
     let ts = config.ts_s();
+    check_motion_samples(&path.points, &schedule.feeds_mm_per_min, config)?;
     let limits = AxisLimits::of(&config.planner);
     let feeds = &schedule.feeds_mm_per_min;
     let motion = match method {
@@ -133,6 +134,61 @@ pub fn programmed_feeds(path: &Toolpath, f_max_mm_per_min: f64) -> Vec<f64> {
                 .map_or(f_max_mm_per_min, |c| c.min(f_max_mm_per_min))
         })
         .collect()
+}
+
+/// The fewest samples a simulated motion of `points` at
+/// `feeds_mm_per_min` (the feed of the block ending at each point) can
+/// have: every block at its feed (no method runs a block faster), plus
+/// the machine's time constants, one sample per interpolation period.
+pub fn motion_samples_at_least(
+    points: &[[f64; 3]],
+    feeds_mm_per_min: &[f64],
+    config: &SimConfig,
+) -> f64 {
+    let mut t_s = config.machine.time_constants_s();
+    for (i, w) in points.windows(2).enumerate() {
+        let len = crate::toolpath::distance(w[0], w[1]);
+        if len > 0.0 {
+            let f = feeds_mm_per_min.get(i + 1).copied().unwrap_or(0.0);
+            t_s += if f > 0.0 {
+                len * 60.0 / f
+            } else {
+                f64::INFINITY
+            };
+        }
+    }
+    t_s / config.ts_s()
+}
+
+/// Refuse, before anything is allocated, a simulation that would need more
+/// than `max_motion_samples` samples (a feed of a few µm/min, a path of
+/// hours).
+pub fn check_motion_samples(
+    points: &[[f64; 3]],
+    feeds_mm_per_min: &[f64],
+    config: &SimConfig,
+) -> Result<()> {
+    let n = motion_samples_at_least(points, feeds_mm_per_min, config);
+    let max = config.max_motion_samples;
+    if n.is_nan() || n > max as f64 {
+        anyhow::bail!(
+            "the motion would take at least {} at the scheduled feeds, over {} samples of {} ms: more than max_motion_samples = {max} (a feed near zero, or a path of hours; raise max_motion_samples or interpolation_period_ms if it is meant)",
+            duration_text(n * config.ts_s()),
+            if n.is_finite() { format!("{n:.0}") } else { "infinitely many".into() },
+            config.interpolation_period_ms,
+        );
+    }
+    Ok(())
+}
+
+fn duration_text(t_s: f64) -> String {
+    if !t_s.is_finite() {
+        "forever (a zero feed)".into()
+    } else if t_s >= 3600.0 {
+        format!("{:.1} h", t_s / 3600.0)
+    } else {
+        format!("{t_s:.1} s")
+    }
 }
 
 /// Schedule with `method` at `f_max`, simulate, measure.

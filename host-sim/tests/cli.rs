@@ -51,6 +51,96 @@ fn malformed_inputs_fail_with_file_and_line_and_write_nothing() {
     }
 }
 
+/// Inputs that would take days of motion or gigabytes of samples are
+/// refused at once, naming the limit; an output file is written whole or
+/// not at all.
+#[test]
+fn runaway_runs_are_refused_before_they_allocate_and_leave_no_file() {
+    let d = tmp("bounds");
+    let slow = d.join("slow.csv");
+    std::fs::write(
+        &slow,
+        "x,y,z,feed\n0,0,0,0.003\n10,0,0,0.003\n20,5,0,0.003\n",
+    )
+    .unwrap();
+    let o = bin()
+        .args([
+            "simulate",
+            "--method",
+            "constant",
+            "--f-max",
+            "0.003",
+            "--no-plots",
+            "--out-dir",
+        ])
+        .arg(d.join("sim"))
+        .arg(&slow)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(err.contains("max_motion_samples"), "{err}");
+    assert!(!d.join("sim").join("slow_motion.csv").exists());
+
+    let cfg = d.join("tc.toml");
+    let text = String::from_utf8(bin().arg("config").output().unwrap().stdout).unwrap();
+    let text: String = text
+        .lines()
+        .map(|l| {
+            if l.starts_with("p1622_time_constant_ms") {
+                "p1622_time_constant_ms = 1e9".to_string()
+            } else {
+                l.to_string()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    std::fs::write(&cfg, text).unwrap();
+    let o = bin()
+        .args(["simulate", "infinity", "--no-plots", "--config"])
+        .arg(&cfg)
+        .arg("--out-dir")
+        .arg(d.join("sim2"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(err.contains("time constants"), "{err}");
+
+    // A schedule refused part way (a bad row after good ones) leaves the
+    // previous output as it was and no temporary file.
+    let bad = d.join("bad.csv");
+    std::fs::write(&bad, "0,0,0\n1,0,0\n2,1,0\n3,1,0\n3,1,nan\n").unwrap();
+    let out = d.join("out.csv");
+    std::fs::write(&out, "old").unwrap();
+    let o = bin()
+        .arg("schedule")
+        .arg(&bad)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), "old");
+    let good = d.join("good.csv");
+    std::fs::write(&good, "0,0,0\n1,0,0\n2,1,0\n3,1,0\n").unwrap();
+    let o = bin()
+        .arg("schedule")
+        .arg(&good)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(std::fs::read_to_string(&out).unwrap().starts_with("line,"));
+    let names: Vec<String> = std::fs::read_dir(&d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with('.'))
+        .collect();
+    assert!(names.is_empty(), "temporary files left: {names:?}");
+}
+
 #[test]
 fn compare_writes_table_claims_json_and_plots() {
     let d = tmp("good");

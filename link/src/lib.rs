@@ -301,6 +301,12 @@ pub enum AlarmCode {
     },
     /// Homing was interrupted (an abort).
     HomingAborted,
+    /// The firmware restarted after a hard fault (a bug: please report
+    /// it with the address and the firmware build).
+    Fault {
+        /// The program counter where the fault happened.
+        pc: u32,
+    },
 }
 
 /// What became of the stored settings (`DeviceMsg::Stored`).

@@ -29,8 +29,9 @@ pub enum Action {
     /// Controlled stop: the motion stops on the path, the rest of the
     /// program is dropped (Esc, Ctrl-C).
     Stop,
-    /// Emergency stop (`!`). The protocol has no emergency stop message
-    /// yet: this sends the same controlled stop as [`Action::Stop`].
+    /// Emergency stop (`!`): `HostMsg::EStop`, the controller's alarm
+    /// state (the step output stops at the next tick with no
+    /// deceleration, the drivers are released) until an unlock.
     EStop,
 }
 
@@ -57,7 +58,7 @@ pub fn from_key(k: &KeyEvent) -> Option<Action> {
 pub enum StopKind {
     /// Controlled stop (Esc, Ctrl-C, `stop`).
     Stop,
-    /// Emergency stop asked for (`!`, `estop`), sent as a controlled stop.
+    /// Emergency stop (`!`, `estop`): the alarm state.
     EStop,
 }
 
@@ -80,8 +81,8 @@ pub enum Effect {
     Send(HostMsg),
     /// Stop: abort the path (the caller sends `Client::abort()`).
     Stop(StopKind),
-    /// A second stop while stopping: leave without waiting for the
-    /// controller's report.
+    /// A second stop while stopping (or any stop after an e-stop): leave
+    /// without waiting for the controller's report.
     Leave,
     /// Nothing changes.
     None,
@@ -99,9 +100,14 @@ impl Operator {
 
     /// Apply a request.
     pub fn apply(&mut self, a: Action) -> Effect {
-        if self.stop.is_some() {
-            return match a {
-                Action::Stop | Action::EStop => Effect::Leave,
+        if let Some(kind) = self.stop {
+            return match (kind, a) {
+                // An e-stop during a controlled stop: the e-stop.
+                (StopKind::Stop, Action::EStop) => {
+                    self.stop = Some(StopKind::EStop);
+                    Effect::Stop(StopKind::EStop)
+                }
+                (_, Action::Stop | Action::EStop) => Effect::Leave,
                 _ => Effect::None,
             };
         }
@@ -386,6 +392,11 @@ mod tests {
         assert_eq!(o.apply(Action::Hold), Effect::None);
         assert_eq!(o.apply(Action::Faster), Effect::None);
         assert_eq!(o.apply(Action::Stop), Effect::Leave);
+        // An e-stop during a controlled stop goes through.
+        let mut o = Operator::new(100);
+        assert_eq!(o.apply(Action::Stop), Effect::Stop(StopKind::Stop));
+        assert_eq!(o.apply(Action::EStop), Effect::Stop(StopKind::EStop));
+        assert_eq!(o.apply(Action::EStop), Effect::Leave);
     }
 
     #[test]

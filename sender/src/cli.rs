@@ -1,5 +1,5 @@
-//! The command line: `send`, `status`, `monitor`, `stop`, each over the
-//! link chosen by `--port`/`--tcp`/`--unix`/`--sim`.
+//! The command line: `send`, `status`, `monitor`, `stop`, `estop`,
+//! `unlock`, `home`, `settings`, each over the link chosen by `--port`/`--tcp`/`--unix`/`--sim`.
 
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
@@ -12,6 +12,7 @@ use link::Status;
 use crate::actions::Script;
 use crate::display::{BarDisplay, LogDisplay};
 use crate::exit::{Exit, Failure};
+use crate::machine;
 use crate::program;
 use crate::record::Recorder;
 use crate::stream::{self, Display, Handshake, Options, Outcome, Session, SettingsCheck};
@@ -20,7 +21,7 @@ use crate::transport::{self, Target, DEFAULT_BAUD};
 use crate::view::{bits_f64, state_name, View};
 
 /// Keys while a program runs (shown at the start and in `--help`).
-pub const KEYS_HELP: &str = "keys: space hold/resume, + / - override ±10 % (10-200 %), Esc or Ctrl-C controlled stop, ! e-stop (the protocol has no emergency stop yet: ! sends the same controlled stop as Esc)";
+pub const KEYS_HELP: &str = "keys: space hold/resume, + / - override ±10 % (10-200 %), Esc or Ctrl-C controlled stop, ! e-stop (alarm: no deceleration, `fuzzy-send unlock` after)";
 
 /// Run a program on a motion board running the fuzzy firmware (or on the
 /// firmware in QEMU, or on the controller simulated on the host).
@@ -40,14 +41,15 @@ Keys while a program runs (when stdin is a terminal):
   space      feed hold / resume
   + / -      feed override ±10 % (10-200 %)
   Esc, Ctrl-C  controlled stop: the motion stops on the path, the rest is dropped
-  !          e-stop: the protocol has no emergency stop message yet, so this
-             sends the same controlled stop as Esc
+  !          e-stop: the controller's alarm state (the step output stops at the
+             next tick with no deceleration, drivers released); `unlock` after
 Without a terminal the run is unattended: a status line a second on stderr,
 Ctrl-C stops under control.
 
 Exit codes: 0 done, 2 bad command line or script, 3 refused input (nothing
 sent), 4 link lost, 5 refused by the controller (settings, busy, a refused
-command), 6 stopped by the user, 1 other errors.";
+command), 6 stopped by the user, 7 alarm (e-stop, limit, homing failure,
+link loss: `unlock`), 1 other errors.";
 
 /// The link to the controller (exactly one of `--port`, `--tcp`,
 /// `--unix`, `--sim`).
@@ -140,6 +142,50 @@ pub enum Command {
     /// Controlled stop of whatever the controller runs (abort: the motion
     /// stops on the path, everything queued is dropped).
     Stop,
+    /// Emergency stop (the alarm state: the step output stops at the next
+    /// tick with no deceleration, the drivers are released, everything
+    /// queued is dropped) until `unlock`.
+    Estop,
+    /// Leave the alarm state (Grbl's `$X`); refused while the e-stop input
+    /// is active.
+    Unlock,
+    /// Run the homing cycle (Grbl's `$H`; needs `$22=1`) and wait for its
+    /// end.
+    Home {
+        /// Axes to home (e.g. `Z`, `XY`); default: the configured passes
+        /// (`$44`-`$46`).
+        #[arg(long, value_name = "AXES")]
+        axes: Option<String>,
+        /// Longest the cycle may take, s (then it is aborted).
+        #[arg(long, default_value_t = 120.0, value_name = "S")]
+        timeout: f64,
+    },
+    /// The `$` settings: list them all (as Grbl's `$$`), read or write one.
+    Settings {
+        /// What (default: list).
+        #[command(subcommand)]
+        action: Option<SettingsAction>,
+    },
+}
+
+/// `settings`.
+#[derive(Subcommand, Debug)]
+pub enum SettingsAction {
+    /// Every setting as `$N=value (name, unit)`.
+    List,
+    /// One setting.
+    Get {
+        /// `N` or `$N`.
+        id: String,
+    },
+    /// Write one (at rest or in an alarm only); the controller checks it
+    /// (out of range: nothing changes) and stores it in flash.
+    Set {
+        /// `N` or `$N`.
+        id: String,
+        /// In the setting's unit (`80.5` steps/mm; decimals as listed).
+        value: String,
+    },
 }
 
 /// `send`.
@@ -207,7 +253,210 @@ fn dispatch(cli: Cli) -> Result<Exit, Failure> {
         Command::Status { json } => status(&target, link_timeout, json),
         Command::Monitor { period } => monitor(&target, link_timeout, period),
         Command::Stop => stop(&target, link_timeout),
+        Command::Estop => estop(&target, link_timeout),
+        Command::Unlock => unlock(&target, link_timeout),
+        Command::Home { axes, timeout } => home(&target, link_timeout, axes.as_deref(), timeout),
+        Command::Settings { action } => settings(
+            &target,
+            link_timeout,
+            action.unwrap_or(SettingsAction::List),
+        ),
     }
+}
+
+/// An axis mask from letters (`XZ`); empty: 0 (the configured passes).
+pub fn parse_axes(s: &str) -> Result<u8, Failure> {
+    let mut m = 0;
+    for c in s.chars() {
+        m |= match c.to_ascii_uppercase() {
+            'X' => 1,
+            'Y' => 2,
+            'Z' => 4,
+            ',' | ' ' => 0,
+            _ => {
+                return Err(Failure::new(
+                    Exit::Usage,
+                    format!("--axes {s:?}: letters X, Y, Z"),
+                ))
+            }
+        };
+    }
+    Ok(m)
+}
+
+fn estop(target: &Target, link_timeout: Duration) -> Result<Exit, Failure> {
+    let (mut s, _sim) = connect(target, Recorder::none())?;
+    let pick = |m: &link::DeviceMsg| match *m {
+        link::DeviceMsg::Alarm { code, pos_mm, .. } => Some((code, pos_mm)),
+        _ => None,
+    };
+    // Acknowledged at once; the alarm's report follows when the
+    // controller has carried it out (none if it already was in alarm).
+    let mut alarm = None;
+    s.ask(
+        &link::HostMsg::EStop,
+        link_timeout,
+        |m| match m {
+            link::DeviceMsg::Ack { .. } => Some(()),
+            _ => None,
+        },
+        |m| {
+            if let Some(a) = pick(m) {
+                alarm = Some(a);
+            }
+        },
+    )?
+    .map_err(|c| {
+        Failure::new(
+            Exit::Controller,
+            format!("the controller refused the e-stop ({c:?})"),
+        )
+    })?;
+    let ms = s.machine_within(link_timeout)?;
+    let st = s.status_within(link_timeout, |m| {
+        if let Some(a) = pick(m) {
+            alarm = Some(a);
+        }
+    })?;
+    let code = alarm.map(|a| a.0).or(ms.alarm);
+    let [x, y, z] = alarm.map_or(st.pos_mm, |a| a.1).map(bits_f64);
+    say(&format!(
+        "ALARM: {}; the tool is at X{x:.3} Y{y:.3} Z{z:.3}; {}",
+        code.map_or("(not reported)".into(), machine::alarm_text),
+        machine::UNLOCK_HINT
+    ));
+    Ok(Exit::Alarm)
+}
+
+fn unlock(target: &Target, link_timeout: Duration) -> Result<Exit, Failure> {
+    let (mut s, _sim) = connect(target, Recorder::none())?;
+    let before = s.machine_within(link_timeout)?;
+    let after = s.unlock(link_timeout)?;
+    let st = s.status_within(link_timeout, |_| {})?;
+    let [x, y, z] = st.pos_mm.map(bits_f64);
+    match before.alarm {
+        Some(code) => say(&format!(
+            "unlocked ({} cleared): {} at X{x:.3} Y{y:.3} Z{z:.3}{}",
+            machine::alarm_text(code),
+            state_name(st.motion),
+            if machine::position_kept(code) {
+                ""
+            } else {
+                "; the position may be off after a stop with no deceleration: home, or check it"
+            }
+        )),
+        None => say(&format!(
+            "not in alarm: nothing to unlock ({} at X{x:.3} Y{y:.3} Z{z:.3})",
+            state_name(st.motion)
+        )),
+    }
+    if after.homed == 0 && before.alarm.is_some() {
+        say("no axis is homed");
+    }
+    Ok(Exit::Done)
+}
+
+fn home(
+    target: &Target,
+    link_timeout: Duration,
+    axes: Option<&str>,
+    timeout: f64,
+) -> Result<Exit, Failure> {
+    let axes = parse_axes(axes.unwrap_or(""))?;
+    if !(timeout.is_finite() && (1.0..=3600.0).contains(&timeout)) {
+        return Err(Failure::new(
+            Exit::Usage,
+            "--timeout must be within 1-3600 s",
+        ));
+    }
+    let (mut s, _sim) = connect(target, Recorder::none())?;
+    say(&format!(
+        "homing {} (timeout {timeout:.0} s)",
+        if axes == 0 {
+            "the configured passes".to_string()
+        } else {
+            machine::axes_text(axes)
+        }
+    ));
+    match s.home(axes, link_timeout, Duration::from_secs_f64(timeout))? {
+        machine::HomeResult::Homed { axes, pos_mm } => {
+            let [x, y, z] = pos_mm.map(bits_f64);
+            say(&format!(
+                "homed {}: the tool rests at X{x:.3} Y{y:.3} Z{z:.3} (machine coordinates)",
+                machine::axes_text(axes)
+            ));
+            Ok(Exit::Done)
+        }
+        machine::HomeResult::Alarm { code, pos_mm } => {
+            let [x, y, z] = pos_mm.map(bits_f64);
+            Err(Failure::new(
+                Exit::Alarm,
+                format!(
+                    "ALARM: {}; the tool stopped at X{x:.3} Y{y:.3} Z{z:.3}; {}",
+                    machine::alarm_text(code),
+                    machine::UNLOCK_HINT
+                ),
+            ))
+        }
+    }
+}
+
+fn settings(
+    target: &Target,
+    link_timeout: Duration,
+    action: SettingsAction,
+) -> Result<Exit, Failure> {
+    // Arguments are checked before connecting.
+    let parsed = match &action {
+        SettingsAction::List => None,
+        SettingsAction::Get { id } => Some((machine::parse_id(id), None)),
+        SettingsAction::Set { id, value } => Some((machine::parse_id(id), Some(value.as_str()))),
+    };
+    let parsed = match parsed {
+        None => None,
+        Some((id, v)) => {
+            let id = id.map_err(|e| Failure::new(Exit::Usage, e))?;
+            let info = machine::setting(id)
+                .ok_or_else(|| Failure::new(Exit::Usage, format!("${id}: no such setting")))?;
+            let raw = v
+                .map(|v| machine::parse_value(info, v).map_err(|e| Failure::new(Exit::Usage, e)))
+                .transpose()?;
+            Some((info, raw))
+        }
+    };
+    let (mut s, _sim) = connect(target, Recorder::none())?;
+    let mut out = std::io::stdout();
+    match parsed {
+        None => {
+            for (info, v) in s.settings(link_timeout)? {
+                let _ = writeln!(out, "{}", machine::setting_line(&info, v));
+            }
+        }
+        Some((info, None)) => {
+            let v = s.get_setting(info.id, link_timeout)?;
+            let _ = writeln!(out, "{}", machine::setting_line(info, v));
+        }
+        Some((info, Some(raw))) => {
+            let stored = s.set_setting(info.id, raw, link_timeout)?;
+            let _ = writeln!(out, "{}", machine::setting_line(info, raw));
+            let when = match info.apply {
+                controller::config::Apply::Restart => "; takes effect at the next reset",
+                _ => "; in force",
+            };
+            match stored {
+                Some(link::StoreResult::Saved) => say(&format!("written{when}; saved to flash")),
+                Some(r) => {
+                    say(&format!("written{when}; but {}", machine::stored_text(r)));
+                    return Ok(Exit::Controller);
+                }
+                None => say(&format!(
+                    "written{when}; the controller did not report the flash write"
+                )),
+            }
+        }
+    }
+    let _ = out.flush();
+    Ok(Exit::Done)
 }
 
 fn connect(
@@ -256,12 +505,13 @@ pub fn status_text(s: &Status) -> String {
 fn status(target: &Target, link_timeout: Duration, json: bool) -> Result<Exit, Failure> {
     let (mut s, _sim) = connect(target, Recorder::none())?;
     let st = s.status_within(link_timeout, |_| {})?;
+    let ms = s.machine_within(link_timeout)?;
     if json {
         let text =
             serde_json::to_string(&st).map_err(|e| Failure::new(Exit::Error, e.to_string()))?;
         println!("{text}");
     } else {
-        print!("{}", status_text(&st));
+        print!("{}{}", status_text(&st), machine::machine_text(&ms));
     }
     Ok(Exit::Done)
 }
@@ -287,7 +537,16 @@ fn monitor(target: &Target, link_timeout: Duration, period: f64) -> Result<Exit,
             elapsed: t0.elapsed(),
             ..View::default()
         };
-        let _ = writeln!(out, "[{:>7.1} s] {}", v.elapsed.as_secs_f64(), v.line());
+        let mut line = v.line();
+        if st.motion == link::Motion::Alarm {
+            let ms = s.machine_within(link_timeout)?;
+            line.push_str(&format!(
+                "  ALARM: {}",
+                ms.alarm
+                    .map_or("(not reported)".into(), machine::alarm_text)
+            ));
+        }
+        let _ = writeln!(out, "[{:>7.1} s] {line}", v.elapsed.as_secs_f64());
         let _ = out.flush();
         let until = Instant::now() + period;
         while Instant::now() < until && stop.count() == 0 {
@@ -332,14 +591,27 @@ fn describe_handshake(hs: &Handshake) -> String {
         ),
     };
     match &hs.settings {
-        SettingsCheck::Matched => s.push_str("; settings match the host's"),
+        SettingsCheck::Matched => s.push_str("; settings match the host's (its hello is what its $ settings give)"),
+        SettingsCheck::Unchecked if hs.config.is_some() => s.push_str(
+            "; $ settings read (its hello went out at reset: reset the board to check the firmware's build against the host's)",
+        ),
         SettingsCheck::Unchecked => s.push_str(
-            "; settings not checked (its hello went out at reset: reset the board to check them)",
+            "; settings not checked (its hello went out at reset, and it did not answer every $ query)",
         ),
         SettingsCheck::Differ(d) => {
             s.push_str("; WARNING, settings differ (--no-check): ");
             s.push_str(&d.join("; "));
         }
+    }
+    if !hs.changed.is_empty() {
+        s.push_str(&format!(
+            "; {} $ settings differ from the defaults: {}",
+            hs.changed.len(),
+            hs.changed.join(", ")
+        ));
+    }
+    if hs.machine.restart_needed {
+        s.push_str("; a changed setting takes effect only at the next reset");
     }
     s
 }
@@ -367,6 +639,28 @@ pub fn summary_text(o: &Outcome) -> Vec<String> {
                 ex.join(", ")
             ));
         }
+    }
+    if s.machine_sent > 0 {
+        let mut l = format!(
+            "machine: {} spindle/coolant commands sent in the path, {} applied by the controller",
+            s.machine_sent, s.machine_applied
+        );
+        if s.machine_off_point.is_empty() {
+            if s.machine_applied > 0 {
+                l.push_str(", each with the tool at rest at its point");
+            }
+        } else {
+            let ex: Vec<String> = s
+                .machine_off_point
+                .iter()
+                .map(|(i, c, h)| format!("command {}: controller point {c}, host {h}", i + 1))
+                .collect();
+            l = format!(
+                "WARNING: {l}, some at another point than the host's: {}",
+                ex.join(", ")
+            );
+        }
+        out.push(l);
     }
     if o.exit == Exit::Done && !s.ended_on_last_point {
         out.push("WARNING: the tool did not end exactly on the path's last point".into());
@@ -410,11 +704,7 @@ fn send(a: SendArgs, target: &Target, link_timeout: Duration) -> Result<Exit, Fa
         "connected to {target}: {}",
         describe_handshake(&hs)
     ));
-    let f_max = a.f_max.unwrap_or_else(|| {
-        hs.hello.map_or(program::machine_feed_max(), |h| {
-            h.feed_max_mm_per_min as f64
-        })
-    });
+    let f_max = a.f_max.unwrap_or_else(|| hs.feed_max_mm_per_min());
     opts.config =
         program::scheduler_config(f_max, a.f_min).map_err(|e| Failure::new(Exit::Usage, e))?;
     // A G-code program starts where the tool is.

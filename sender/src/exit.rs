@@ -8,7 +8,8 @@
 //! | 3 | refused input: the file cannot be read, or a line the reader or the controller's rules refuse; nothing was sent |
 //! | 4 | link lost: no connection, the connection closed, or the controller stopped answering |
 //! | 5 | refused by the controller: its settings differ from the host's, it is busy with another path, or it refused a command |
-//! | 6 | stopped by the user (Esc, Ctrl-C, `!`, or a script's `stop`/`estop`) |
+//! | 6 | stopped by the user under control (Esc, Ctrl-C, or a script's `stop`) |
+//! | 7 | alarm: the controller is in its alarm state (an e-stop, `!` or a script's `estop` included, a limit, a failed homing cycle, link loss); `fuzzy-send unlock` clears it |
 
 use std::fmt;
 
@@ -27,8 +28,10 @@ pub enum Exit {
     LinkLost = 4,
     /// The controller refused: settings, busy, or a refused command.
     Controller = 5,
-    /// Stopped by the user.
+    /// Stopped by the user under control.
     UserStop = 6,
+    /// The controller is in its alarm state.
+    Alarm = 7,
 }
 
 impl Exit {
@@ -48,6 +51,7 @@ impl fmt::Display for Exit {
             Exit::LinkLost => "link lost",
             Exit::Controller => "refused by the controller",
             Exit::UserStop => "stopped by the user",
+            Exit::Alarm => "alarm",
         })
     }
 }
@@ -99,6 +103,7 @@ mod tests {
             Exit::LinkLost,
             Exit::Controller,
             Exit::UserStop,
+            Exit::Alarm,
         ];
         let mut codes: Vec<u8> = all.iter().map(|e| e.code()).collect();
         codes.sort();

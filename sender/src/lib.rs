@@ -4,7 +4,7 @@
 //! ```text
 //! FILE ─► program (host-sim's readers, the controller's acceptance rules, the host's schedule)
 //!      ─► stream: handshake, settings check, link::client::Connection (credit, go-back-N)
-//!         ◄─ actions (keys, script, Ctrl-C) ─► hold / resume / override / abort
+//!         ◄─ actions (keys, script, Ctrl-C) ─► hold / resume / override / abort / e-stop
 //!      ─► view (status line, progress, ETA) ─► display (bar or log) ─► exit code
 //! ```
 //!
@@ -12,7 +12,8 @@
 //! |---|---|
 //! | [`program`] | the input: G-code, CSV or a shape; checked, scheduled on the host |
 //! | [`stream`] | the session with the controller: handshake, the streaming loop, how a run ends |
-//! | [`actions`] | operator requests: keys, scripts, hold/override/stop state |
+//! | [`actions`] | operator requests: keys, scripts, hold/override/stop/e-stop state |
+//! | [`machine`] | alarms, the machine status, homing, unlock and the `$` settings |
 //! | [`view`] | the status line and the ETA |
 //! | [`display`] | progress bar (indicatif) or log lines |
 //! | [`terminal`] | keys from a terminal (crossterm), Ctrl-C, merged inputs |
@@ -26,6 +27,7 @@ pub mod actions;
 pub mod cli;
 pub mod display;
 pub mod exit;
+pub mod machine;
 pub mod program;
 pub mod record;
 pub mod sim;

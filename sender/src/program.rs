@@ -9,14 +9,16 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 
 use clap::ValueEnum;
-use controller::command::{config_from_link, point_from_link, MIN_FEED_MM_PER_MIN};
-use controller::settings::{Sched, FEED_MAX_MM_PER_MIN};
-use fuzzy_core::lin2021::COMPACT;
-use fuzzy_core::scheduler::{PathPoint, SchedulerConfig};
+use controller::command::{config_from_link, point_from_link, Cmd, MIN_FEED_MM_PER_MIN};
+use controller::feeder::Feeder;
+use controller::settings::FEED_MAX_MM_PER_MIN;
+use fuzzy_core::scheduler::{PathPoint, ScheduledPoint, SchedulerConfig};
 use fuzzy_core::units::{FeedMmPerMin, Point3Mm};
 use host_sim::config::SimConfig;
 use host_sim::shapes::Shape;
+use host_sim::toolpath::MachineEvent;
 use link::batch::to_grid;
+use link::{MachineCmd, SpindleDir};
 
 /// Where a program came from.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -42,6 +44,88 @@ pub struct Program {
     pub lines: Vec<u32>,
     /// Path length up to each point, mm.
     pub cum_mm: Vec<f64>,
+    /// For each point given to [`Program::new`], the index of the point it
+    /// became (merged points share one).
+    kept_at: Vec<usize>,
+    /// Machine commands (spindle, coolant) in program order, each after a
+    /// point.
+    pub events: Vec<Event>,
+}
+
+/// A machine command of the program (M3/M4/M5 with S, M7/M8/M9): it takes
+/// effect once the tool has reached point `after` (the controller ends
+/// the path there, waits until the tool is at rest, applies it; the
+/// points after it form a new path).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Event {
+    /// The index of the point it comes after.
+    pub after: usize,
+    /// Its source line (0: none).
+    pub line: u32,
+    /// What.
+    pub cmd: MachineCmd,
+}
+
+/// What goes between the path's `StartPath` and `EndPath`, in order
+/// ([`Program::items`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Item {
+    /// Point `index` of the program; `repeat`: sent again as the first
+    /// point of the path after a machine command (where the tool rests:
+    /// the scheduler's new path starts from it, as a program starts from
+    /// the tool's position).
+    Point {
+        /// Index in [`Program::points`].
+        index: usize,
+        /// A repeat of the point before a machine command.
+        repeat: bool,
+    },
+    /// Machine command `index` of [`Program::events`].
+    Machine {
+        /// Index in [`Program::events`].
+        index: usize,
+    },
+}
+
+/// How a G-code machine word becomes the link's command: the speed in
+/// whole rpm (rounded; an off spindle is sent with 0).
+fn machine_cmd(e: &MachineEvent) -> Option<MachineCmd> {
+    Some(match *e {
+        MachineEvent::Spindle { dir, rpm } => {
+            let dir = match dir {
+                host_sim::toolpath::SpindleDir::Off => SpindleDir::Off,
+                host_sim::toolpath::SpindleDir::Cw => SpindleDir::Cw,
+                host_sim::toolpath::SpindleDir::Ccw => SpindleDir::Ccw,
+            };
+            if !(rpm.is_finite() && (0.0..=u32::MAX as f64).contains(&rpm)) {
+                return None;
+            }
+            let speed_rpm = if dir == SpindleDir::Off {
+                0
+            } else {
+                rpm.round() as u32
+            };
+            MachineCmd::Spindle { dir, speed_rpm }
+        }
+        MachineEvent::Coolant { flood, mist } => MachineCmd::Coolant { flood, mist },
+    })
+}
+
+/// A machine command as G-code, for messages.
+pub fn cmd_text(c: &MachineCmd) -> String {
+    match *c {
+        MachineCmd::Spindle { dir, speed_rpm } => match dir {
+            SpindleDir::Off => "M5".into(),
+            SpindleDir::Cw => format!("M3 S{speed_rpm}"),
+            SpindleDir::Ccw => format!("M4 S{speed_rpm}"),
+        },
+        MachineCmd::Coolant { flood, mist } => match (flood, mist) {
+            (false, false) => "M9".into(),
+            (true, false) => "M8".into(),
+            (false, true) => "M7".into(),
+            (true, true) => "M7 M8".into(),
+        },
+    }
 }
 
 /// Input the sender refuses: where (file and line, when the reader names
@@ -161,7 +245,20 @@ pub fn load(spec: &str, config: &SimConfig) -> Result<Program, InputError> {
     };
     let blocks_mm = (0..t.len()).map(|i| t.block_length_mm(i)).collect();
     let points = t.path_points();
-    Program::new(t.name, source, points, t.lines, blocks_mm, spec)
+    let mut events = Vec::with_capacity(t.events.len());
+    for (after, line, e) in &t.events {
+        let cmd = machine_cmd(e).ok_or_else(|| InputError {
+            file: spec.to_string(),
+            line: (*line > 0).then_some(*line),
+            message: format!("{e:?}: a spindle speed the controller cannot take"),
+        })?;
+        events.push(Event {
+            after: *after,
+            line: *line,
+            cmd,
+        });
+    }
+    Program::new(t.name, source, points, t.lines, blocks_mm, spec).map(|p| p.with_events(events))
 }
 
 impl Program {
@@ -182,14 +279,17 @@ impl Program {
         let mut kept = Vec::with_capacity(points.len());
         let mut kept_lines = Vec::with_capacity(points.len());
         let mut kept_mm: Vec<f64> = Vec::with_capacity(points.len());
+        let mut kept_at = Vec::with_capacity(points.len());
         for ((p, line), b) in points.into_iter().zip(lines).zip(blocks_mm) {
             let p = on_grid(p);
             if kept.last().is_some_and(|q: &PathPoint| q.pos == p.pos) {
                 if let Some(m) = kept_mm.last_mut() {
                     *m += b;
                 }
+                kept_at.push(kept.len().saturating_sub(1));
                 continue;
             }
+            kept_at.push(kept.len());
             kept.push(p);
             kept_lines.push(line);
             kept_mm.push(b);
@@ -229,7 +329,50 @@ impl Program {
             points,
             lines,
             cum_mm,
+            events: Vec::new(),
+            kept_at,
         })
+    }
+
+    /// With these machine commands (their `after` an index of the points
+    /// given to [`Program::new`], renumbered as points merged).
+    pub fn with_events(mut self, events: Vec<Event>) -> Self {
+        let last = self.points.len().saturating_sub(1);
+        self.events = events
+            .into_iter()
+            .map(|e| Event {
+                after: self.kept_at.get(e.after).copied().unwrap_or(last),
+                ..e
+            })
+            .collect();
+        self
+    }
+
+    /// The stream between `StartPath` and `EndPath`: every point, each
+    /// machine command after its point, and after a machine command that
+    /// more points follow, its point again (the new path's start).
+    pub fn items(&self) -> Vec<Item> {
+        let mut out = Vec::with_capacity(self.points.len() + 2 * self.events.len());
+        let mut ev = self.events.iter().enumerate().peekable();
+        for index in 0..self.points.len() {
+            out.push(Item::Point {
+                index,
+                repeat: false,
+            });
+            let mut any = false;
+            while let Some((k, _)) = ev.next_if(|(_, e)| e.after <= index) {
+                out.push(Item::Machine { index: k });
+                any = true;
+            }
+            if any && index + 1 < self.points.len() {
+                out.push(Item::Point {
+                    index,
+                    repeat: true,
+                });
+            }
+        }
+        out.extend(ev.map(|(k, _)| Item::Machine { index: k }));
+        out
     }
 
     /// Number of points.
@@ -260,23 +403,77 @@ impl Program {
         self.lines.get(i).copied().filter(|&l| l > 0)
     }
 
-    /// Every point as the controller's scheduler schedules it
-    /// (`controller::settings::Sched`, the firmware's sizes): its index in
-    /// the path (duplicates merged) and feed, I32F32 bits, by point.
+    /// Every point of [`Program::items`] as the controller's scheduler
+    /// schedules it: the controller's own first stage
+    /// (`controller::feeder::Feeder`, the firmware's sizes) fed the same
+    /// commands (a machine command ends the path, as there): its index in
+    /// its path and feed, I32F32 bits, by item.
     pub fn host_schedule(&self, config: SchedulerConfig) -> Vec<Option<(u32, i64)>> {
-        let mut out = vec![None; self.points.len()];
-        if let Ok(mut s) = Sched::new(&COMPACT, config) {
-            let _ = s.run(
-                self.points.iter().enumerate().map(|(i, p)| PathPoint {
-                    tag: i as u32,
-                    ..*p
-                }),
-                |o| {
-                    if let Some(slot) = out.get_mut(o.point.tag as usize) {
-                        *slot = Some((o.index, o.feed.0.to_bits()));
+        let items = self.items();
+        let mut out = vec![None; items.len()];
+        let Ok(mut f) = Feeder::new() else {
+            return out;
+        };
+        let mut put = |s: Option<ScheduledPoint>| {
+            if let Some(o) = s {
+                if let Some(slot) = out.get_mut(o.point.tag as usize) {
+                    *slot = Some((o.index, o.feed.0.to_bits()));
+                }
+            }
+        };
+        let drain = |f: &mut Feeder, put: &mut dyn FnMut(Option<ScheduledPoint>)| {
+            while f.is_draining() {
+                put(f.drain());
+            }
+            f.take_path_end();
+        };
+        if f.command(Cmd::StartPath(config)).is_err() {
+            return out;
+        }
+        for (k, item) in items.iter().enumerate() {
+            match *item {
+                Item::Point { index, repeat } => {
+                    let Some(p) = self.points.get(index) else {
+                        continue;
+                    };
+                    let p = PathPoint {
+                        tag: k as u32,
+                        // The new path's start: no block leads to it.
+                        feed_cap: if repeat { None } else { p.feed_cap },
+                        ..*p
+                    };
+                    if let Ok(s) = f.command(Cmd::point(p)) {
+                        put(s);
                     }
-                },
-            );
+                }
+                Item::Machine { index } => {
+                    let cmd = self.events.get(index).map(|e| e.cmd);
+                    if let Some(cmd) = cmd {
+                        let _ = f.command(Cmd::Machine { seq: 0, cmd });
+                        drain(&mut f, &mut put);
+                    }
+                }
+            }
+        }
+        let _ = f.command(Cmd::EndPath);
+        drain(&mut f, &mut put);
+        out
+    }
+
+    /// The host's feeds by point (the first scheduling of each point, not
+    /// its repeat), from [`Program::host_schedule`].
+    pub fn feeds_by_point(&self, by_item: &[Option<(u32, i64)>]) -> Vec<Option<i64>> {
+        let mut out = vec![None; self.points.len()];
+        for (item, f) in self.items().iter().zip(by_item) {
+            if let Item::Point {
+                index,
+                repeat: false,
+            } = *item
+            {
+                if let Some(slot) = out.get_mut(index) {
+                    *slot = f.map(|x| x.1);
+                }
+            }
         }
         out
     }
@@ -409,6 +606,75 @@ mod tests {
         assert!(t.windows(2).all(|w| w[1] >= w[0]));
         // At most F_max: at least length / F_max.
         assert!(t[t.len() - 1] >= p.length_mm() / 3000.0 * 60.0 - 1e-9);
+    }
+
+    #[test]
+    fn machine_words_go_between_the_points_and_the_next_path_restarts_at_its_point() {
+        let dir = std::env::temp_dir().join(format!("sender-prog-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("words.ngc");
+        // M3 before any move, M8 with it; S while running after X1; a
+        // repeated X1 merged; M9 M5 at the end.
+        std::fs::write(
+            &f,
+            "G21 G90\nM3 S1000.4\nM8\nG1 X1 F100\nG1 X1\nS2000\nG1 X2\nM9 M5\n",
+        )
+        .unwrap();
+        let p = load(&f.to_string_lossy(), &SimConfig::default()).unwrap();
+        assert_eq!(p.len(), 3);
+        let texts: Vec<(usize, u32, String)> = p
+            .events
+            .iter()
+            .map(|e| (e.after, e.line, cmd_text(&e.cmd)))
+            .collect();
+        let t = |a, l, s: &str| (a, l, s.to_string());
+        assert_eq!(
+            texts,
+            vec![
+                t(0, 2, "M3 S1000"),
+                t(0, 3, "M8"),
+                t(1, 6, "M3 S2000"),
+                t(2, 8, "M5"),
+                t(2, 8, "M9"),
+            ]
+        );
+        let pt = |index, repeat| Item::Point { index, repeat };
+        let m = |index| Item::Machine { index };
+        assert_eq!(
+            p.items(),
+            vec![
+                pt(0, false),
+                m(0),
+                m(1),
+                pt(0, true),
+                pt(1, false),
+                m(2),
+                pt(1, true),
+                pt(2, false),
+                m(3),
+                m(4),
+            ]
+        );
+        // Every point item is scheduled, each path on its own (the repeat
+        // is its path's index 0).
+        let sched = p.host_schedule(scheduler_config(3000.0, 60.0).unwrap());
+        let idx: Vec<Option<u32>> = sched.iter().map(|s| s.map(|x| x.0)).collect();
+        assert_eq!(
+            idx,
+            vec![
+                Some(0),
+                None,
+                None,
+                Some(0),
+                Some(1),
+                None,
+                Some(0),
+                Some(1),
+                None,
+                None
+            ]
+        );
+        assert!(p.feeds_by_point(&sched).iter().all(|f| f.is_some()));
     }
 
     #[test]

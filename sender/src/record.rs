@@ -68,6 +68,13 @@ impl Recorder {
         }
     }
 
+    /// A machine command of the path (sequence number, what, source line).
+    pub fn machine(&mut self, seq: u32, cmd: &link::MachineCmd, line: u32) {
+        if self.out.is_some() {
+            self.write(json!({"t_s": 0.0, "machine": {"seq": seq, "cmd": cmd, "line": line}}));
+        }
+    }
+
     /// An immediate message sent.
     pub fn sent(&mut self, t_s: f64, m: &HostMsg) {
         if self.out.is_some() {

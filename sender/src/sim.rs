@@ -18,6 +18,7 @@ use std::time::{Duration, Instant};
 
 use controller::settings::TICK_HZ;
 use controller::sim::VirtualDevice;
+use controller::store::MemFlash;
 use fuzzy_core::units::Point3Mm;
 
 /// What the simulated controller did, when its thread ends.
@@ -103,6 +104,26 @@ pub fn spawn(speed: f64) -> io::Result<(UnixStream, SimHandle)> {
 /// its clock starts with the first [`SimHandle::connect`], which gets its
 /// hello.
 pub fn start(speed: f64) -> io::Result<SimHandle> {
+    start_with(speed, |_| {})
+}
+
+/// [`start`], with `setup` run on the fresh device first (limit switches
+/// on its axes, an active e-stop input: `controller::sim::VirtualDevice`'s
+/// fields).
+pub fn start_with(
+    speed: f64,
+    setup: impl FnOnce(&mut VirtualDevice) + Send + 'static,
+) -> io::Result<SimHandle> {
+    start_from(speed, MemFlash::default(), setup)
+}
+
+/// [`start_with`], the device reading its settings from `flash` at
+/// start-up (as a board with settings stored).
+pub fn start_from(
+    speed: f64,
+    flash: MemFlash,
+    setup: impl FnOnce(&mut VirtualDevice) + Send + 'static,
+) -> io::Result<SimHandle> {
     if !(speed.is_finite() && speed > 0.0 && speed <= 1000.0) {
         return Err(io::Error::other(format!(
             "simulation speed {speed}: must be in (0, 1000]"
@@ -118,8 +139,9 @@ pub fn start(speed: f64) -> io::Result<SimHandle> {
     let (ready_tx, ready_rx) = mpsc::channel();
     let thread = thread::Builder::new()
         .name("sim-controller".into())
-        .spawn(move || match VirtualDevice::new() {
-            Ok(d) => {
+        .spawn(move || match VirtualDevice::with_flash(flash) {
+            Ok(mut d) => {
+                setup(&mut d);
                 let _ = ready_tx.send(Ok(()));
                 while !go2.load(Ordering::Relaxed) && !stop2.load(Ordering::Relaxed) {
                     thread::sleep(Duration::from_micros(100));

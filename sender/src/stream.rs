@@ -8,16 +8,18 @@ use std::io::{Read, Write};
 use std::time::{Duration, Instant};
 
 use controller::alarm::Latch;
-use controller::config::Config;
+use controller::config::{Config, Key, SETTINGS};
 use controller::session::DeviceLink;
-use controller::settings::{Plan, CMD_CREDIT, MOTION_CONFIG};
+use controller::settings::{Plan, CMD_CREDIT};
 use fuzzy_core::scheduler::SchedulerConfig;
 use link::client::{Connection, Hello, SILENCE};
-use link::{DeviceMsg, ErrorCode, HostMsg, Motion, PlanEvent, Status, StoreResult};
+use link::{
+    AlarmCode, DeviceMsg, ErrorCode, HostMsg, MachineStatus, Motion, PlanEvent, Status, StoreResult,
+};
 
 use crate::actions::{Action, Effect, Operator, StopKind};
 use crate::exit::{Exit, Failure};
-use crate::program::Program;
+use crate::program::{cmd_text, Item, Program};
 use crate::record::Recorder;
 use crate::view::{bits_f64, Eta, View};
 
@@ -101,12 +103,19 @@ impl Actions for crate::actions::Script {
     }
 }
 
-/// The settings check of the handshake.
+/// The settings check of the handshake: the controller's `$` settings are
+/// read ([`Handshake::config`]); its hello (sent at reset) must be what
+/// the controller crate, as the host was built, derives from them (the
+/// tick rate, the feed maximum, the planner's tangential acceleration
+/// from the axes' limits and the planner size): then the host's model of
+/// it (the schedule checked by `--verify`, the feed maximum of the ETA
+/// and the default F_max) is the controller's.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum SettingsCheck {
-    /// The controller's hello matches the host's settings.
+    /// The controller's hello is what its settings give on the host.
     Matched,
-    /// No hello came (the controller was already running): not checked.
+    /// No hello came (the controller was already running): its settings
+    /// were read, not checked against a hello.
     Unchecked,
     /// They differ (only with the check off; else the handshake fails).
     Differ(Vec<String>),
@@ -119,19 +128,44 @@ pub struct Handshake {
     pub hello: Option<Hello>,
     /// Its status.
     pub status: Status,
+    /// Its machine status (alarm, homing, spindle).
+    pub machine: MachineStatus,
     /// The settings check.
     pub settings: SettingsCheck,
+    /// The controller's `$` settings, as read (`None`: it did not answer
+    /// every query; the check then assumes the defaults).
+    pub config: Option<Config>,
+    /// The settings that differ from the defaults, `$N=value (name, unit)`.
+    pub changed: Vec<String>,
     /// The credit of an empty command queue.
     pub credit_size: u32,
 }
 
+impl Handshake {
+    /// The controller's feed maximum ($201), mm/min: from its settings as
+    /// read, else its hello, else the host's default.
+    pub fn feed_max_mm_per_min(&self) -> f64 {
+        match (&self.config, self.hello) {
+            (Some(c), _) => c.get(Key::FeedMax) as f64,
+            (None, Some(h)) => h.feed_max_mm_per_min as f64,
+            (None, None) => crate::program::machine_feed_max(),
+        }
+    }
+}
+
 /// The hello a controller with the default settings sends (built with the
-/// host's `FW_*` settings, no `$` setting changed): the controller crate's
-/// own (`DeviceLink::hello`).
+/// host's `FW_*` settings, no `$` setting changed).
 pub fn expected_hello() -> Option<Hello> {
+    expected_hello_for(&Config::DEFAULT)
+}
+
+/// The hello a controller with the settings `config` sends, as the host's
+/// build of the controller crate computes it (`DeviceLink::hello`, the
+/// planner built from `config`).
+pub fn expected_hello_for(config: &Config) -> Option<Hello> {
     static LATCH: Latch = Latch::new();
-    let plan = Box::new(Plan::new(MOTION_CONFIG).ok()?);
-    match DeviceLink::new(&LATCH, Config::DEFAULT, StoreResult::Empty).hello(&plan) {
+    let plan = Box::new(Plan::new(config.motion_config()).ok()?);
+    match DeviceLink::new(&LATCH, *config, StoreResult::Empty).hello(&plan) {
         DeviceMsg::Hello {
             tick_hz,
             accel_mm_per_s2,
@@ -148,7 +182,18 @@ pub fn expected_hello() -> Option<Hello> {
     }
 }
 
-/// How a controller's settings differ from the host's, one line each.
+/// The settings of `config` that differ from the defaults, as
+/// `$N=value (name, unit)`.
+pub fn changed_settings(config: &Config) -> Vec<String> {
+    SETTINGS
+        .iter()
+        .zip(config.values().iter().zip(Config::DEFAULT.values()))
+        .filter(|(_, (v, d))| v != d)
+        .map(|(info, (v, _))| crate::machine::setting_line(info, *v))
+        .collect()
+}
+
+/// How a controller's hello differs from the one expected, one line each.
 pub fn settings_differences(got: &Hello, want: &Hello) -> Vec<String> {
     let mut d = Vec::new();
     let mut cmp = |what: &str, g: u32, w: u32, unit: &str| {
@@ -196,6 +241,12 @@ pub fn busy(s: &Status, credit_size: u32) -> bool {
     !at_rest(s, credit_size)
 }
 
+/// Whether the controller is in its alarm state (by its status or its
+/// machine status), and the alarm's cause if known.
+fn hs_alarm(s: &Status, m: &MachineStatus) -> Option<Option<AlarmCode>> {
+    (s.motion == Motion::Alarm || m.alarm.is_some()).then_some(m.alarm)
+}
+
 /// What a run did.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Summary {
@@ -219,6 +270,16 @@ pub struct Summary {
     pub refusals: u32,
     /// The controller's stop report, when a stop ended the run.
     pub aborted: Option<DeviceMsg>,
+    /// The alarm that ended the run: its cause and where the tool stopped.
+    pub alarm: Option<(AlarmCode, [i64; 3])>,
+    /// Machine commands (spindle, coolant) sent in the path.
+    pub machine_sent: u32,
+    /// Of those, reported applied by the controller.
+    pub machine_applied: u32,
+    /// The first few applied at another point count than expected: (the
+    /// command's index in the program, the controller's count, the
+    /// host's).
+    pub machine_off_point: Vec<(usize, u32, u32)>,
 }
 
 /// How a run ended.
@@ -245,7 +306,7 @@ const SETTLE: Duration = Duration::from_secs(2);
 
 /// A session with one controller.
 pub struct Session {
-    conn: Connection,
+    pub(crate) conn: Connection,
     rec: Recorder,
     t0: Instant,
     last_rx: Instant,
@@ -278,7 +339,7 @@ impl Session {
         self.t0.elapsed().as_secs_f64()
     }
 
-    fn recv(&mut self, timeout: Duration) -> Result<Option<DeviceMsg>, Failure> {
+    pub(crate) fn recv(&mut self, timeout: Duration) -> Result<Option<DeviceMsg>, Failure> {
         let m = self.conn.recv(timeout).map_err(|e| {
             Failure::new(
                 Exit::LinkLost,
@@ -296,9 +357,9 @@ impl Session {
         Ok(m)
     }
 
-    fn send(&mut self, m: &HostMsg) -> Result<(), Failure> {
+    pub(crate) fn send(&mut self, m: &HostMsg) -> Result<(), Failure> {
         let t = self.t_s();
-        if !matches!(m, HostMsg::StatusQuery) {
+        if !matches!(m, HostMsg::StatusQuery | HostMsg::MachineQuery) {
             self.rec.sent(t, m);
         }
         self.conn
@@ -336,6 +397,62 @@ impl Session {
         }
     }
 
+    /// Send `msg` (again every 500 ms, within `timeout`) until the reply
+    /// `pick` takes comes, or a refusal (its code; sequence and credit
+    /// refusals are the link client's); other messages go to `seen`.
+    pub fn ask<T>(
+        &mut self,
+        msg: &HostMsg,
+        timeout: Duration,
+        mut pick: impl FnMut(&DeviceMsg) -> Option<T>,
+        mut seen: impl FnMut(&DeviceMsg),
+    ) -> Result<Result<T, ErrorCode>, Failure> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            self.send(msg)?;
+            let again = Instant::now() + Duration::from_millis(500);
+            while let Some(left) = again.checked_duration_since(Instant::now()) {
+                let Some(m) = self.recv(left.min(Duration::from_millis(50)))? else {
+                    continue;
+                };
+                if let Some(t) = pick(&m) {
+                    return Ok(Ok(t));
+                }
+                if let DeviceMsg::Error { code, .. } = m {
+                    if !matches!(code, ErrorCode::OutOfSequence | ErrorCode::NoCredit) {
+                        return Ok(Err(code));
+                    }
+                }
+                seen(&m);
+            }
+            if Instant::now() >= deadline {
+                return Err(Failure::new(
+                    Exit::LinkLost,
+                    format!(
+                        "no answer from the controller within {:.1} s",
+                        timeout.as_secs_f64()
+                    ),
+                ));
+            }
+        }
+    }
+
+    /// The machine status (alarm, homing, spindle, coolant, inputs, the
+    /// settings store).
+    pub fn machine_within(&mut self, timeout: Duration) -> Result<MachineStatus, Failure> {
+        let pick = |m: &DeviceMsg| match *m {
+            DeviceMsg::Machine(s) => Some(s),
+            _ => None,
+        };
+        self.ask(&HostMsg::MachineQuery, timeout, pick, |_| {})?
+            .map_err(|code| {
+                Failure::new(
+                    Exit::Controller,
+                    format!("the controller refused the machine status query ({code:?})"),
+                )
+            })
+    }
+
     /// Connect to the controller: its hello if it just reset, its status,
     /// the link client resynchronised to its sequence, its settings
     /// checked against the host's.
@@ -347,6 +464,7 @@ impl Session {
             }
         }
         let status = self.status_within(opts.link_timeout, |_| {})?;
+        let machine = self.machine_within(opts.link_timeout)?;
         // A board that resets when its port opens may say hello late.
         let hello = self.conn.client().hello();
         // Whether it just reset or was running: continue its sequence.
@@ -355,16 +473,22 @@ impl Session {
             Some(DeviceMsg::Hello { window_end, .. }) if hello.is_some() => window_end,
             _ => CMD_CREDIT,
         };
-        let settings = match (hello, expected_hello()) {
+        let config = self.read_config(opts.link_timeout)?;
+        let changed = config.as_ref().map_or_else(Vec::new, changed_settings);
+        let want = expected_hello_for(config.as_ref().unwrap_or(&Config::DEFAULT));
+        let settings = match (hello, want) {
             (Some(h), Some(want)) => {
-                let d = settings_differences(&h, &want);
+                let mut d = settings_differences(&h, &want);
+                if config.is_none() {
+                    d.push("its $ settings could not all be read: the defaults assumed".into());
+                }
                 if d.is_empty() {
                     SettingsCheck::Matched
                 } else if opts.check_settings {
                     return Err(Failure::new(
                         Exit::Controller,
                         format!(
-                            "the controller's settings differ from the host's ({}); the firmware and the sender must be built with the same FW_* settings and the controller's $ settings left at their defaults, or pass --no-check",
+                            "the controller's hello is not what its $ settings give on the host ({}): the firmware and the sender must be built from the same tree with the same FW_* settings, or pass --no-check",
                             d.join("; ")
                         ),
                     ));
@@ -377,9 +501,30 @@ impl Session {
         Ok(Handshake {
             hello,
             status,
+            machine,
             settings,
+            config,
+            changed,
             credit_size,
         })
+    }
+
+    /// Every `$` setting of the controller, if it answers each and they
+    /// are valid together (`Config::from_values`); `None` if it refuses a
+    /// query (then nothing can be compared).
+    fn read_config(&mut self, timeout: Duration) -> Result<Option<Config>, Failure> {
+        let mut values = *Config::DEFAULT.values();
+        for (v, info) in values.iter_mut().zip(SETTINGS.iter()) {
+            let pick = |m: &DeviceMsg| match *m {
+                DeviceMsg::Setting { id, value } if id == info.id => Some(value),
+                _ => None,
+            };
+            match self.ask(&HostMsg::GetSetting { id: info.id }, timeout, pick, |_| {})? {
+                Ok(x) => *v = x,
+                Err(_) => return Ok(None),
+            }
+        }
+        Ok(Config::from_values(values))
     }
 
     /// A controlled stop of whatever the controller runs: abort, wait for
@@ -441,9 +586,26 @@ impl Session {
     }
 }
 
+/// The path after a machine command: it starts at the program's point
+/// `base` (repeated), its point count is the controller's
+/// `point_reached`, which still shows the previous path's count `stale`
+/// until the new path begins.
+#[derive(Clone, Copy, Debug)]
+struct Segment {
+    base: usize,
+    stale: u32,
+    begun: bool,
+}
+
 /// The state of one run.
 struct Run<'a> {
     program: &'a Program,
+    /// What goes between the path's start and end (`Program::items`).
+    items: Vec<Item>,
+    /// The point count each machine command should take effect at.
+    applied_at: Vec<u32>,
+    /// The path after the last machine command applied, if one was.
+    segment: Option<Segment>,
     opts: &'a Options,
     credit_size: u32,
     /// Host schedule by point index: (index in the path, feed bits).
@@ -451,6 +613,7 @@ struct Run<'a> {
     eta: Eta,
     operator: Operator,
     status0: Status,
+    machine0: MachineStatus,
     stale_reached: u32,
     started: bool,
     end_planned: bool,
@@ -460,24 +623,52 @@ struct Run<'a> {
     start_seq: u32,
     t_start: Instant,
     summary: Summary,
+    /// A path command of ours was refused for an alarm: when.
+    alarm_refused: Option<Instant>,
+    /// The machine status was asked for after that.
+    machine_asked: bool,
+    /// The last status.
+    last_status: Status,
 }
 
 impl<'a> Run<'a> {
     fn new(program: &'a Program, hs: &Handshake, opts: &'a Options) -> Self {
-        let feed_max = hs.hello.map_or(crate::program::machine_feed_max(), |h| {
-            h.feed_max_mm_per_min as f64
-        });
+        let feed_max = hs.feed_max_mm_per_min();
         let host = program.host_schedule(opts.config);
-        let feeds: Vec<Option<i64>> = host.iter().map(|h| h.map(|x| x.1)).collect();
+        let feeds = program.feeds_by_point(&host);
         let eta = Eta::new(program.cum_time_s(&feeds, feed_max));
+        let items = program.items();
+        // The point count each machine command should find its path at:
+        // the points since the previous one (none: the same path).
+        let mut applied_at = vec![0; program.events.len()];
+        let mut n = 0;
+        let mut last = 0;
+        for it in &items {
+            match *it {
+                Item::Point { .. } => n += 1,
+                Item::Machine { index } => {
+                    if n > 0 {
+                        last = n;
+                    }
+                    if let Some(a) = applied_at.get_mut(index) {
+                        *a = last;
+                    }
+                    n = 0;
+                }
+            }
+        }
         Run {
             program,
+            items,
+            applied_at,
+            segment: None,
             opts,
             credit_size: hs.credit_size,
             host,
             eta,
             operator: Operator::new(opts.initial_override.unwrap_or(hs.status.override_percent)),
             status0: hs.status,
+            machine0: hs.machine,
             stale_reached: hs.status.point_reached,
             started: hs.status.point_reached == 0,
             end_planned: false,
@@ -487,19 +678,75 @@ impl<'a> Run<'a> {
             start_seq: 0,
             t_start: Instant::now(),
             summary: Summary::default(),
+            alarm_refused: None,
+            machine_asked: false,
+            last_status: hs.status,
         }
     }
 
-    /// Points of our path reached, once the controller is on it.
+    /// How an alarm ended the run: its cause, where the tool stopped (and
+    /// the program's point and line reached), what to do.
+    fn alarm_message(
+        &self,
+        code: AlarmCode,
+        pos_mm: [i64; 3],
+        stopping: Option<StopKind>,
+    ) -> String {
+        let [x, y, z] = pos_mm.map(bits_f64);
+        let at = match self.reached(&self.last_status) {
+            Some(r) if r > 0 => {
+                let i = r as usize - 1;
+                match self.program.line_of(i) {
+                    Some(l) => format!(
+                        " after point {r} of {} (input line {l})",
+                        self.program.len()
+                    ),
+                    None => format!(" after point {r} of {}", self.program.len()),
+                }
+            }
+            _ => String::new(),
+        };
+        let lead = match stopping {
+            Some(StopKind::EStop) => "E-STOP: ",
+            _ => "",
+        };
+        let pos = if crate::machine::position_kept(code) {
+            "stopped under control"
+        } else {
+            "stopped with no deceleration (steps may be lost: re-home or check the position)"
+        };
+        format!(
+            "{lead}ALARM: {}; the tool {pos} at X{x:.3} Y{y:.3} Z{z:.3}{at}; the rest of the program was dropped; {}",
+            crate::machine::alarm_text(code),
+            crate::machine::UNLOCK_HINT
+        )
+    }
+
+    /// Points of our program reached, once the controller is on it.
     fn reached(&self, s: &Status) -> Option<u32> {
-        self.started
-            .then_some(s.point_reached.min(self.program.len() as u32))
+        if !self.started {
+            return None;
+        }
+        let r = match self.segment {
+            None => s.point_reached,
+            Some(g) if !g.begun && s.point_reached == g.stale => g.base as u32 + 1,
+            Some(g) => (g.base as u32).saturating_add(s.point_reached),
+        };
+        Some(r.min(self.program.len() as u32))
+    }
+
+    /// The item with sequence number `seq` and its index.
+    fn item(&self, seq: u32) -> Option<(usize, Item)> {
+        let k = seq.wrapping_sub(self.first_point_seq) as usize;
+        self.items.get(k).map(|i| (k, *i))
     }
 
     /// The index of the program's point with sequence number `seq`.
     fn point_index(&self, seq: u32) -> Option<usize> {
-        let i = seq.wrapping_sub(self.first_point_seq) as usize;
-        (i < self.program.len()).then_some(i)
+        match self.item(seq)? {
+            (_, Item::Point { index, .. }) => Some(index),
+            _ => None,
+        }
     }
 
     fn ours(&self, seq: u32) -> bool {
@@ -515,6 +762,15 @@ impl<'a> Run<'a> {
             match self.program.line_of(i) {
                 Some(l) => format!("point {} (input line {l})", i + 1),
                 None => format!("point {}", i + 1),
+            }
+        } else if let Some((_, Item::Machine { index })) = self.item(seq) {
+            let e = self.program.events.get(index);
+            match e {
+                Some(e) if e.line > 0 => {
+                    format!("{} (input line {})", cmd_text(&e.cmd), e.line)
+                }
+                Some(e) => cmd_text(&e.cmd),
+                None => format!("sequence number {seq}"),
             }
         } else {
             format!("sequence number {seq}")
@@ -552,6 +808,16 @@ impl<'a> Run<'a> {
     ) -> Result<(Exit, String), Failure> {
         let cfg = self.opts.config;
         let (f_max, f_min) = (cfg.f_max.0.to_bits(), cfg.f_min.0.to_bits());
+        if let Some(code) = hs_alarm(&self.status0, &self.machine0) {
+            return Err(Failure::new(
+                Exit::Alarm,
+                format!(
+                    "the controller is in its alarm state: {}; nothing was sent; {}",
+                    code.map_or("(cause not reported)".into(), crate::machine::alarm_text),
+                    crate::machine::UNLOCK_HINT
+                ),
+            ));
+        }
         if busy(&self.status0, self.credit_size) {
             let st = &self.status0;
             return Err(Failure::new(
@@ -579,16 +845,31 @@ impl<'a> Run<'a> {
         let t = s.t_s();
         s.rec
             .path(t, self.start_seq, f_max, f_min, self.program.len());
-        for (i, p) in self.program.points.iter().enumerate() {
-            let bits = p.pos.to_bits();
-            let cap = p.feed_cap.map(|f| f.0.to_bits());
-            let seq = s.conn.client_mut().point(bits, cap);
-            s.rec.point(
-                seq,
-                bits,
-                cap,
-                self.program.lines.get(i).copied().unwrap_or(0),
-            );
+        for it in &self.items {
+            match *it {
+                Item::Point { index, repeat } => {
+                    let Some(p) = self.program.points.get(index) else {
+                        continue;
+                    };
+                    let bits = p.pos.to_bits();
+                    // A repeat starts a path: no block leads to it.
+                    let cap = p.feed_cap.filter(|_| !repeat).map(|f| f.0.to_bits());
+                    let seq = s.conn.client_mut().point(bits, cap);
+                    s.rec.point(
+                        seq,
+                        bits,
+                        cap,
+                        self.program.lines.get(index).copied().unwrap_or(0),
+                    );
+                }
+                Item::Machine { index } => {
+                    if let Some(e) = self.program.events.get(index) {
+                        let seq = s.conn.client_mut().machine(e.cmd);
+                        s.rec.machine(seq, &e.cmd, e.line);
+                        self.summary.machine_sent += 1;
+                    }
+                }
+            }
         }
         self.end_seq = s.conn.client_mut().end_path();
         self.t_start = Instant::now();
@@ -612,11 +893,14 @@ impl<'a> Run<'a> {
                         control_sent = Instant::now();
                     }
                     Effect::Stop(kind) => {
-                        let m = s.conn.client_mut().abort();
+                        let m = match kind {
+                            StopKind::Stop => s.conn.client_mut().abort(),
+                            StopKind::EStop => HostMsg::EStop,
+                        };
                         s.send(&m)?;
                         display.note(match kind {
                             StopKind::Stop => "stopping: the motion stops on the path, the rest of the program is dropped",
-                            StopKind::EStop => "e-stop asked for: the protocol has no emergency stop yet, so this is the same controlled stop (the motion stops on the path under control)",
+                            StopKind::EStop => "E-STOP: the step output stops at the next tick, with no deceleration; the drivers are released",
                         });
                         stopping = Some((m, kind, Instant::now(), Instant::now()));
                     }
@@ -653,6 +937,14 @@ impl<'a> Run<'a> {
                         }
                         self.reconcile(s, &st, &mut control_sent)?;
                     }
+                }
+            }
+            // Refused for an alarm and no report of it: ask for the machine
+            // status (it names the alarm).
+            if let Some(t) = self.alarm_refused {
+                if !self.machine_asked && t.elapsed() > Duration::from_millis(500) {
+                    s.send(&HostMsg::MachineQuery)?;
+                    self.machine_asked = true;
                 }
             }
             // Sent and not acknowledged for a while: resend from where the
@@ -714,10 +1006,10 @@ impl<'a> Run<'a> {
                 feed_mm_per_min,
                 ..
             } => {
-                if let Some(i) = self.point_index(seq) {
+                if let Some((k, Item::Point { index: i, .. })) = self.item(seq) {
                     self.started = true;
                     self.summary.scheduled += 1;
-                    let host = self.host.get(i).copied().flatten();
+                    let host = self.host.get(k).copied().flatten();
                     if host != Some((index, feed_mm_per_min)) {
                         self.summary.feed_mismatches += 1;
                         if self.summary.mismatch_examples.len() < 5 {
@@ -734,7 +1026,31 @@ impl<'a> Run<'a> {
                 event: PlanEvent::EndPath,
                 ..
             } if self.started => self.end_planned = true,
+            DeviceMsg::Applied { seq, point, .. } => {
+                if let Some((_, Item::Machine { index })) = self.item(seq) {
+                    self.started = true;
+                    self.summary.machine_applied += 1;
+                    let want = self.applied_at.get(index).copied().unwrap_or(0);
+                    if point != want && self.summary.machine_off_point.len() < 5 {
+                        self.summary.machine_off_point.push((index, point, want));
+                    }
+                    let base = self.program.events.get(index).map_or(0, |e| e.after);
+                    self.segment = Some(Segment {
+                        base,
+                        stale: point,
+                        begun: false,
+                    });
+                    // The path's end that counts is the last one's.
+                    self.end_planned = false;
+                }
+            }
             DeviceMsg::Status(st) => {
+                self.last_status = st;
+                if let Some(g) = self.segment.as_mut() {
+                    if st.point_reached != g.stale {
+                        g.begun = true;
+                    }
+                }
                 if st.point_reached != self.stale_reached {
                     self.started = true;
                 }
@@ -745,17 +1061,51 @@ impl<'a> Run<'a> {
             }
             DeviceMsg::Error { code, expected_seq } => {
                 self.summary.refusals += 1;
-                if matches!(code, ErrorCode::OutOfRange | ErrorCode::Rejected)
-                    && self.ours(expected_seq)
-                    && stopping.is_none()
+                let ours = self.ours(expected_seq) && stopping.is_none();
+                if code == ErrorCode::Alarm && ours {
+                    // The alarm's report follows (or the machine status
+                    // names it, if the report was missed).
+                    self.alarm_refused.get_or_insert_with(Instant::now);
+                } else if matches!(
+                    code,
+                    ErrorCode::OutOfRange
+                        | ErrorCode::Rejected
+                        | ErrorCode::OutOfTravel
+                        | ErrorCode::NotHomed
+                        | ErrorCode::Busy
+                ) && ours
                 {
+                    let why = match code {
+                        ErrorCode::OutOfTravel => {
+                            ": outside the machine's travel (soft limits, $20 and $130-$132)"
+                        }
+                        ErrorCode::NotHomed => {
+                            ": homing is required before motion ($22): run `fuzzy-send home`"
+                        }
+                        ErrorCode::Busy => ": the controller is busy (a homing cycle)",
+                        _ => "",
+                    };
                     return Err(Failure::new(
                         Exit::Controller,
                         format!(
-                            "the controller refused {} ({code:?})",
+                            "the controller refused {} ({code:?}){why}",
                             self.describe_seq(expected_seq)
                         ),
                     ));
+                }
+            }
+            DeviceMsg::Alarm { code, pos_mm, .. } => {
+                self.summary.alarm = Some((code, pos_mm));
+                return Ok(Some((
+                    Exit::Alarm,
+                    self.alarm_message(code, pos_mm, stopping),
+                )));
+            }
+            DeviceMsg::Machine(ms) if self.alarm_refused.is_some() => {
+                if let Some(code) = ms.alarm {
+                    let pos = self.last_status.pos_mm;
+                    self.summary.alarm = Some((code, pos));
+                    return Ok(Some((Exit::Alarm, self.alarm_message(code, pos, stopping))));
                 }
             }
             DeviceMsg::Aborted { pos_mm, .. } => {
@@ -768,10 +1118,8 @@ impl<'a> Run<'a> {
                     Some(StopKind::Stop) => {
                         (Exit::UserStop, format!("stopped by the user: {what}"))
                     }
-                    Some(StopKind::EStop) => (
-                        Exit::UserStop,
-                        format!("e-stop (sent as a controlled stop): {what}"),
-                    ),
+                    // An e-stop ends with the alarm's report, not this.
+                    Some(StopKind::EStop) => (Exit::UserStop, format!("stopped: {what}")),
                     None => (
                         Exit::Controller,
                         format!("the controller aborted the path: {what}"),
@@ -806,7 +1154,8 @@ impl<'a> Run<'a> {
         }
         let rest = drained
             && st.motion == Motion::Idle
-            && st.point_reached as usize >= self.program.len()
+            && self.summary.machine_applied as usize >= self.program.events.len()
+            && self.reached(st).unwrap_or(0) as usize >= self.program.len()
             && (self.end_planned || !self.opts.reports);
         if !rest {
             self.rest_since = None;
@@ -873,6 +1222,9 @@ mod tests {
         Handshake {
             hello: None,
             status,
+            machine: MachineStatus::default(),
+            config: None,
+            changed: Vec::new(),
             settings: SettingsCheck::Unchecked,
             credit_size: CMD_CREDIT,
         }
@@ -929,14 +1281,37 @@ mod tests {
             .unwrap();
         assert_eq!(exit, Exit::UserStop);
         assert!(msg.contains("X1.000"), "{msg}");
-        let (exit, msg) = r
-            .on_message(&aborted, Some(StopKind::EStop))
-            .unwrap()
-            .unwrap();
-        assert_eq!(exit, Exit::UserStop);
-        assert!(msg.contains("controlled stop"), "{msg}");
         let (exit, _) = r.on_message(&aborted, None).unwrap().unwrap();
         assert_eq!(exit, Exit::Controller);
+        // An alarm: exit 7, its cause and where the tool stopped.
+        let alarm = DeviceMsg::Alarm {
+            code: link::AlarmCode::HardLimit { axis: 0, max: true },
+            pos_mm: [5 << 32, 0, 0],
+            next_seq: 40,
+        };
+        let (exit, msg) = r.on_message(&alarm, None).unwrap().unwrap();
+        assert_eq!(exit, Exit::Alarm);
+        assert!(
+            msg.contains("X max switch") && msg.contains("X5.000") && msg.contains("unlock"),
+            "{msg}"
+        );
+        // A refusal for the alarm waits for its report.
+        let mut r = run(&p, &o);
+        assert_eq!(r.on_message(&refused(ErrorCode::Alarm, 12), None), Ok(None));
+        assert!(r.alarm_refused.is_some());
+        let ms = DeviceMsg::Machine(MachineStatus {
+            alarm: Some(link::AlarmCode::EStopInput),
+            ..MachineStatus::default()
+        });
+        let (exit, msg) = r.on_message(&ms, None).unwrap().unwrap();
+        assert_eq!(exit, Exit::Alarm);
+        assert!(msg.contains("e-stop input"), "{msg}");
+        // Homing required, or outside the travel: refused, named.
+        let e = r
+            .on_message(&refused(ErrorCode::NotHomed, 11), None)
+            .unwrap_err();
+        assert_eq!(e.exit, Exit::Controller);
+        assert!(e.message.contains("fuzzy-send home"), "{e}");
         // A hello during the run: the controller reset.
         let hello = DeviceMsg::Hello {
             tick_hz: 1000,

@@ -2,7 +2,8 @@
 //! (`controller::sim::VirtualDevice`, the firmware's own code) through an
 //! in-process byte stream (`sender::sim`): programs run to their end with
 //! the host's feeds bit for bit and the tool on the last point; scripted
-//! hold, resume, override, stop and e-stop; a cut link, a silent link, a
+//! hold, resume, override, stop; an e-stop (the alarm, exit 7) and an
+//! unlock; a cut link, a silent link, a
 //! lossy link; a controller already running (resync), a busy one, and
 //! `stop` clearing it.
 
@@ -12,11 +13,13 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use controller::config::Config;
+use controller::store::{self, MemFlash};
 use host_sim::config::SimConfig;
-use link::{DeviceMsg, HostMsg, Motion, PlanEvent, Status};
+use link::{AlarmCode, DeviceMsg, HostMsg, Motion, PlanEvent, Status};
 use sender::actions::{Action, Script};
 use sender::exit::Exit;
-use sender::program::{self, Program};
+use sender::program::{self, Item, Program};
 use sender::record::Recorder;
 use sender::sim::{self, SimHandle};
 use sender::stream::{Actions, NoActions, Options, Outcome, Quiet, Session, SettingsCheck};
@@ -86,10 +89,27 @@ fn events(msgs: &[DeviceMsg]) -> Vec<PlanEvent> {
         .collect()
 }
 
+/// Points in the program's last path (after its last machine command, if
+/// any: they end the path).
+fn last_path_len(p: &Program) -> usize {
+    p.items()
+        .iter()
+        .rev()
+        .take_while(|i| matches!(i, Item::Point { .. }))
+        .count()
+}
+
 fn assert_done(o: &Outcome, p: &Program) {
     assert_eq!(o.exit, Exit::Done, "{}", o.message);
     let s = &o.summary;
-    assert_eq!(s.scheduled as usize, p.len(), "every point scheduled");
+    let points = p
+        .items()
+        .iter()
+        .filter(|i| matches!(i, Item::Point { .. }))
+        .count();
+    assert_eq!(s.scheduled as usize, points, "every point scheduled");
+    assert_eq!(s.machine_applied, s.machine_sent, "every machine command");
+    assert!(s.machine_off_point.is_empty(), "{:?}", s.machine_off_point);
     assert_eq!(s.feed_mismatches, 0, "{:?}", s.mismatch_examples);
     assert!(s.ended_on_last_point, "{:?}", s.last_status);
 }
@@ -143,7 +163,8 @@ fn without_reports_the_end_is_found_from_the_status_alone() {
         assert_eq!(out.summary.scheduled, 0, "{spec}: no reports");
         assert!(out.summary.ended_on_last_point, "{spec}");
         let st = out.summary.last_status.unwrap();
-        assert_eq!(st.point_reached as usize, p.len(), "{spec}");
+        assert_eq!(st.point_reached as usize, last_path_len(&p), "{spec}");
+        assert_eq!(out.summary.machine_applied as usize, p.events.len());
     }
 }
 
@@ -156,6 +177,46 @@ fn a_fresh_controllers_settings_are_checked() {
     assert_eq!(hs.settings, SettingsCheck::Matched);
     assert!(hs.hello.is_some());
     assert_done(&s.run(&p, &hs, &o, &mut NoActions, &mut Quiet), &p);
+}
+
+/// A board with `$` settings changed and stored (X acceleration, the
+/// machine's feed maximum): its hello differs from the defaults' but is
+/// what its settings give, so the check passes; the changed settings are
+/// listed, the default F_max and the ETA take its feed maximum, and the
+/// program runs with the host's schedule bit for bit.
+#[test]
+fn a_controller_with_changed_settings_is_checked_against_them() {
+    let mut flash = MemFlash::default();
+    let (_, _, mut st) = store::load(&flash);
+    let mut c = Config::DEFAULT;
+    c.set(120, 400).unwrap();
+    c.set(201, 4000).unwrap();
+    assert_eq!(st.save(&mut flash, &c), link::StoreResult::Saved);
+    let h = sim::start_from(8.0, flash, |_| {}).unwrap();
+    let mut s = session(&h, Recorder::none());
+    let o = opts();
+    let hs = s.handshake(&o).unwrap();
+    let hello = hs.hello.expect("fresh from reset");
+    assert_ne!(
+        Some(hello),
+        sender::stream::expected_hello(),
+        "not the defaults' hello"
+    );
+    assert_eq!(hs.settings, SettingsCheck::Matched);
+    assert_eq!(hs.config, Some(c));
+    assert_eq!(hs.changed.len(), 2, "{:?}", hs.changed);
+    assert!(hs.changed[0].starts_with("$120=400 "), "{:?}", hs.changed);
+    assert_eq!(hs.feed_max_mm_per_min(), 4000.0);
+    let p = load("infinity");
+    assert_done(&s.run(&p, &hs, &o, &mut NoActions, &mut Quiet), &p);
+    // A hello that does not follow from the settings (another build) is
+    // refused.
+    let other = link::client::Hello {
+        accel_mm_per_s2: hello.accel_mm_per_s2 + 1,
+        ..hello
+    };
+    let d = sender::stream::settings_differences(&other, &hello);
+    assert_eq!(d.len(), 1, "{d:?}");
 }
 
 #[test]
@@ -196,41 +257,94 @@ fn scripted_hold_resume_and_override_act_on_the_motion() {
 }
 
 #[test]
-fn a_stop_and_an_estop_end_under_control_on_the_path() {
-    for (action, word) in [(Action::Stop, "stop"), (Action::EStop, "estop")] {
-        let h = sim::start(2.0).unwrap();
-        let p = load("trident");
-        let mut s = session(&h, Recorder::none());
-        let mut script = Script::parse(&format!("at point 700: {word}\n")).unwrap();
-        assert_eq!(script.steps()[0].action, action);
-        let o = run(&mut s, &p, &mut script);
-        assert_eq!(o.exit, Exit::UserStop, "{}", o.message);
-        if action == Action::EStop {
-            assert!(o.message.contains("controlled stop"), "{}", o.message);
+fn a_stop_ends_under_control_on_the_path() {
+    let h = sim::start(2.0).unwrap();
+    let p = load("trident");
+    let mut s = session(&h, Recorder::none());
+    let mut script = Script::parse("at point 700: stop\n").unwrap();
+    assert_eq!(script.steps()[0].action, Action::Stop);
+    let o = run(&mut s, &p, &mut script);
+    assert_eq!(o.exit, Exit::UserStop, "{}", o.message);
+    let Some(DeviceMsg::Aborted { pos_mm, points, .. }) = o.summary.aborted else {
+        panic!("no stop report: {o:?}")
+    };
+    assert!(points > 0, "the rest of the path was dropped");
+    // The report comes when the planner is at rest; the tick executes
+    // what it generated a few ticks later.
+    let deadline = Instant::now() + Duration::from_secs(5);
+    loop {
+        let st = s.status_within(Duration::from_secs(2), |_| {}).unwrap();
+        if st.pos_mm == pos_mm && st.motion == Motion::Idle {
+            break;
         }
-        let Some(DeviceMsg::Aborted { pos_mm, points, .. }) = o.summary.aborted else {
-            panic!("no stop report: {o:?}")
-        };
-        assert!(points > 0, "the rest of the path was dropped");
-        // The report comes when the planner is at rest; the tick executes
-        // what it generated a few ticks later.
-        let deadline = Instant::now() + Duration::from_secs(5);
-        loop {
-            let st = s.status_within(Duration::from_secs(2), |_| {}).unwrap();
-            if st.pos_mm == pos_mm && st.motion == Motion::Idle {
-                break;
-            }
-            assert!(Instant::now() < deadline, "{st:?}");
-            std::thread::sleep(Duration::from_millis(20));
-        }
-        let r = h.finish();
-        assert_eq!(
-            r.last_position.map(|q| q.to_bits()),
-            Some(pos_mm),
-            "the tool is where the report says"
-        );
-        assert_ne!(Some(pos_mm), p.points.last().map(|q| q.pos.to_bits()));
+        assert!(Instant::now() < deadline, "{st:?}");
+        std::thread::sleep(Duration::from_millis(20));
     }
+    let r = h.finish();
+    assert_eq!(
+        r.last_position.map(|q| q.to_bits()),
+        Some(pos_mm),
+        "the tool is where the report says"
+    );
+    assert_ne!(Some(pos_mm), p.points.last().map(|q| q.pos.to_bits()));
+}
+
+/// A scripted e-stop mid-path: `HostMsg::EStop`, the controller's alarm
+/// (exit 7, the cause and where the tool stopped); the next program is
+/// refused while in alarm, with nothing sent; after an unlock it runs.
+#[test]
+fn an_estop_is_the_alarm_until_unlocked() {
+    let h = sim::start(2.0).unwrap();
+    let p = load("trident");
+    let rec = temp("estop.jsonl");
+    let mut s = session(&h, Recorder::create(&rec).unwrap());
+    let mut script = Script::parse("at point 700: estop\n").unwrap();
+    assert_eq!(script.steps()[0].action, Action::EStop);
+    let o = run(&mut s, &p, &mut script);
+    s.finish_record().unwrap();
+    assert_eq!(o.exit, Exit::Alarm, "{}", o.message);
+    assert_eq!(o.exit.code(), 7);
+    assert!(
+        o.message.contains("E-STOP") && o.message.contains("e-stop from the host"),
+        "{}",
+        o.message
+    );
+    assert!(o.message.contains("unlock"), "{}", o.message);
+    let Some((code, pos_mm)) = o.summary.alarm else {
+        panic!("no alarm: {o:?}")
+    };
+    assert_eq!(code, AlarmCode::EStopLink);
+    assert!(o.summary.aborted.is_none(), "not a controlled stop");
+    // It was moving when it stopped: the last status before the alarm
+    // had a feed (no ramp down to rest on the path).
+    let st = statuses(&received(&rec));
+    let before = st.iter().rev().find(|s| s.motion != Motion::Alarm).unwrap();
+    assert!(before.feed_mm_per_min > 0, "{before:?}");
+    // In alarm: the status and machine status say so, a program is refused.
+    let mut s2 = session(&h, Recorder::none());
+    let st = s2.status_within(Duration::from_secs(2), |_| {}).unwrap();
+    assert_eq!(st.motion, Motion::Alarm);
+    assert_eq!(st.pos_mm, pos_mm, "stopped where the report says");
+    let ms = s2.machine_within(Duration::from_secs(2)).unwrap();
+    assert_eq!(ms.alarm, Some(AlarmCode::EStopLink));
+    let refused = run(&mut s2, &p, &mut NoActions);
+    assert_eq!(refused.exit, Exit::Alarm, "{}", refused.message);
+    assert!(
+        refused.message.contains("nothing was sent"),
+        "{}",
+        refused.message
+    );
+    // Unlocked: idle, and the program runs from where the tool stopped.
+    let ms = s2.unlock(Duration::from_secs(2)).unwrap();
+    assert_eq!(ms.alarm, None);
+    let mut s3 = session(&h, Recorder::none());
+    let t = load("infinity");
+    assert_done(&run(&mut s3, &t, &mut NoActions), &t);
+    let r = h.finish();
+    assert_eq!(
+        r.last_position.map(|q| q.to_bits()),
+        t.points.last().map(|q| q.pos.to_bits())
+    );
 }
 
 /// Cuts the link once the controller reports `point` reached.
@@ -436,4 +550,46 @@ fn a_lost_override_is_sent_again() {
     let o = run(&mut s, &p, &mut script);
     assert_done(&o, &p);
     assert_eq!(o.summary.last_status.unwrap().override_percent, 150);
+}
+
+/// Spindle and coolant words of a G-code program go in the path as machine
+/// commands, in order: each ends the path, takes effect with the tool at
+/// rest at its point (the controller's `Applied`, at the host's point
+/// count), and the rest runs as new paths; every feed is still the host's
+/// schedule bit for bit (the host schedules the same paths), the tool ends
+/// on the last point, and the machine is off again at the end.
+#[test]
+fn spindle_and_coolant_words_take_effect_in_order_at_their_points() {
+    let dir = temp("words");
+    std::fs::create_dir_all(&dir).unwrap();
+    let f = dir.join("words.ngc");
+    std::fs::write(
+        &f,
+        "G21 G90 G17\nM3 S8000\nM8\nG1 X5 F2000\nG1 X5 Y5\nS9000\nG1 X0 Y5\nG2 X0 Y0 I0 J-2.5\nM9\nM5\n",
+    )
+    .unwrap();
+    let p = load(&f.to_string_lossy());
+    let cmds: Vec<String> = p.events.iter().map(|e| program::cmd_text(&e.cmd)).collect();
+    assert_eq!(cmds, ["M3 S8000", "M8", "M3 S9000", "M9", "M5"]);
+    let h = sim::start(10.0).unwrap();
+    let rec = temp("words.jsonl");
+    let mut s = session(&h, Recorder::create(&rec).unwrap());
+    let o = run(&mut s, &p, &mut NoActions);
+    s.finish_record().unwrap();
+    assert_done(&o, &p);
+    assert_eq!(o.summary.machine_sent, 5);
+    let applied: Vec<link::MachineCmd> = received(&rec)
+        .iter()
+        .filter_map(|m| match m {
+            DeviceMsg::Applied { cmd, .. } => Some(*cmd),
+            _ => None,
+        })
+        .collect();
+    let want: Vec<link::MachineCmd> = p.events.iter().map(|e| e.cmd).collect();
+    assert_eq!(applied, want, "applied in program order");
+    let ms = s.machine_within(Duration::from_secs(2)).unwrap();
+    assert_eq!(ms.spindle, link::SpindleDir::Off);
+    assert!(!ms.flood && !ms.mist);
+    let text = sender::cli::summary_text(&o).join("\n");
+    assert!(text.contains("5 spindle/coolant commands sent"), "{text}");
 }

@@ -950,7 +950,8 @@ fn a_flood_of_noise_then_a_status_query_is_answered() {
         .collect();
     fw.send_raw(&shorts);
     fw.send_raw(&[0]);
-    let s = fw.status();
+    // QEMU works through the 160 kB first: slow on a loaded machine.
+    let s = fw.status_within(Duration::from_secs(60));
     assert!(s.bad_frames >= 20_000, "{s:?}");
     let replies = fw.rec.errors.len();
     assert!(replies < 1000, "{replies} replies to 20 001 bad frames");

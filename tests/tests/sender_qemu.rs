@@ -22,7 +22,13 @@
 //!   exactly on its last point;
 //! - a refused G-code line: exit 3, `FILE:LINE: message`, nothing sent
 //!   (the sender never connects);
-//! - `monitor` prints status lines until Ctrl-C, exit 0.
+//! - `monitor` prints status lines until Ctrl-C, exit 0;
+//! - a scripted e-stop mid-path: the firmware's alarm, exit 7 with its
+//!   cause and position; the next program refused in alarm (exit 7,
+//!   nothing sent); `status` names the alarm; `unlock` (exit 0); a `$`
+//!   setting written (in force; QEMU's flash does not keep it: exit 5 and
+//!   said so) and read back; `home` refused with homing off (exit 5); a
+//!   program then runs (exit 0) with the changed setting listed.
 //!
 //! Needs `qemu-system-arm` (skipped without it unless
 //! `FUZZY_REQUIRE_QEMU=1`). Every QEMU and sender run has a deadline.
@@ -36,7 +42,7 @@ use std::time::{Duration, Instant};
 
 use controller::settings::MOTION_CONFIG;
 use fuzzy_core::scheduler::PathPoint;
-use link::{DeviceMsg, Motion, PlanEvent, Status};
+use link::{DeviceMsg, MachineCmd, Motion, PlanEvent, SpindleDir, Status};
 use system_tests::firmware::{firmware_elf, on_grid, qemu_available, repo_root, PlanLog};
 use system_tests::planned;
 
@@ -223,6 +229,8 @@ struct Record {
     f_min_bits: i64,
     /// (seq, position bits, feed cap bits) in order.
     points: Vec<(u32, [i64; 3], Option<i64>)>,
+    /// Machine commands of the path: (seq, what) in order.
+    machine: Vec<(u32, MachineCmd)>,
     rx: Vec<DeviceMsg>,
 }
 
@@ -241,6 +249,11 @@ fn read_record(path: &Path) -> Record {
                 p["seq"].as_u64().expect("seq") as u32,
                 pos,
                 p["cap_bits"].as_i64(),
+            ));
+        } else if let Some(m) = v.get("machine") {
+            r.machine.push((
+                m["seq"].as_u64().expect("seq") as u32,
+                serde_json::from_value(m["cmd"].clone()).expect("a MachineCmd"),
             ));
         } else if let Some(m) = v.get("rx") {
             r.rx.push(serde_json::from_value(m.clone()).expect("a DeviceMsg"));
@@ -289,19 +302,46 @@ impl Record {
 /// and position at every status, and `extra` statuses taken after the
 /// run), within every limit. Returns the replay.
 fn verify(name: &str, file: &Path, rec: &Record, extra: &[Status]) -> planned::Replayed {
-    // As a sender streams them: on the link's grid.
-    let host: Vec<PathPoint> = on_grid(
-        &host_sim::inputs::load(file, &host_sim::config::SimConfig::default().gcode)
-            .expect("the host reads the file")
-            .path_points(),
-    );
-    assert_eq!(rec.points.len(), host.len(), "{name}: points sent");
-    for (i, ((seq, pos, cap), h)) in rec.points.iter().zip(&host).enumerate() {
-        assert_eq!(
-            *seq,
-            rec.start_seq + 1 + i as u32,
-            "{name}: seq of point {i}"
-        );
+    // As a sender streams them: on the link's grid; the spindle and
+    // coolant words in order with them, each after its point, and after
+    // those the point again (the next path's start, no feed cap).
+    let read = host_sim::inputs::load(file, &host_sim::config::SimConfig::default().gcode)
+        .expect("the host reads the file");
+    let host: Vec<PathPoint> = on_grid(&read.path_points());
+    let mut want: Vec<PathPoint> = Vec::new();
+    let mut want_machine = Vec::new();
+    for (i, h) in host.iter().enumerate() {
+        want.push(*h);
+        let here: Vec<_> = read.events.iter().filter(|e| e.0 == i).collect();
+        for (_, _, e) in &here {
+            want_machine.push(match *e {
+                host_sim::toolpath::MachineEvent::Spindle { dir, rpm } => {
+                    let dir = match dir {
+                        host_sim::toolpath::SpindleDir::Off => SpindleDir::Off,
+                        host_sim::toolpath::SpindleDir::Cw => SpindleDir::Cw,
+                        host_sim::toolpath::SpindleDir::Ccw => SpindleDir::Ccw,
+                    };
+                    let speed_rpm = if dir == SpindleDir::Off {
+                        0
+                    } else {
+                        rpm.round() as u32
+                    };
+                    MachineCmd::Spindle { dir, speed_rpm }
+                }
+                host_sim::toolpath::MachineEvent::Coolant { flood, mist } => {
+                    MachineCmd::Coolant { flood, mist }
+                }
+            });
+        }
+        if !here.is_empty() && i + 1 < host.len() {
+            want.push(PathPoint {
+                feed_cap: None,
+                ..*h
+            });
+        }
+    }
+    assert_eq!(rec.points.len(), want.len(), "{name}: points sent");
+    for (i, ((_, pos, cap), h)) in rec.points.iter().zip(&want).enumerate() {
         assert_eq!(*pos, h.pos.to_bits(), "{name}: point {i} sent as read");
         assert_eq!(
             *cap,
@@ -309,10 +349,54 @@ fn verify(name: &str, file: &Path, rec: &Record, extra: &[Status]) -> planned::R
             "{name}: cap of point {i}"
         );
     }
+    let sent_machine: Vec<MachineCmd> = rec.machine.iter().map(|m| m.1).collect();
+    assert_eq!(sent_machine, want_machine, "{name}: machine commands sent");
+    // Every path command in order from the start: points and machine
+    // commands take consecutive sequence numbers.
+    let mut seqs_all: Vec<u32> = rec
+        .points
+        .iter()
+        .map(|p| p.0)
+        .chain(rec.machine.iter().map(|m| m.0))
+        .collect();
+    seqs_all.sort_unstable();
+    assert!(
+        seqs_all
+            .iter()
+            .enumerate()
+            .all(|(k, q)| *q == rec.start_seq + 1 + k as u32),
+        "{name}: sequence numbers"
+    );
+    // Each machine command took effect (in order) with the tool at rest.
+    let applied: Vec<(u32, MachineCmd)> = rec
+        .rx
+        .iter()
+        .filter_map(|m| match *m {
+            DeviceMsg::Applied { seq, cmd, .. } => Some((seq, cmd)),
+            _ => None,
+        })
+        .collect();
+    assert!(
+        rec.machine.starts_with(&applied),
+        "{name}: applied in order: {applied:?}"
+    );
     let config = controller::command::config_from_link(rec.f_max_bits, rec.f_min_bits)
         .expect("the path's settings");
-    let seqs: Vec<u32> = rec.points.iter().map(|p| p.0).collect();
-    let points = planned::schedule(config, &host, &seqs);
+    // A machine command ends the path: each path is scheduled on its own.
+    let mut points = std::collections::HashMap::new();
+    let mut from = 0;
+    for k in 1..=rec.points.len() {
+        let cut = k == rec.points.len()
+            || rec
+                .machine
+                .iter()
+                .any(|m| m.0 > rec.points[k - 1].0 && m.0 < rec.points[k].0);
+        if cut {
+            let seqs: Vec<u32> = rec.points[from..k].iter().map(|p| p.0).collect();
+            points.extend(planned::schedule(config, &want[from..k], &seqs));
+            from = k;
+        }
+    }
     let mut scheduled = 0;
     for m in &rec.rx {
         if let DeviceMsg::Scheduled {
@@ -353,8 +437,12 @@ fn verify(name: &str, file: &Path, rec: &Record, extra: &[Status]) -> planned::R
     let p = planned::peaks(&rep.ticks, &MOTION_CONFIG, rep.accel_mm_s2);
     planned::check_limits(name, &p, &MOTION_CONFIG);
     println!(
-        "{name}: {} points sent as read, {scheduled} feeds and {} setpoints bit-exact with the host ({n} statuses)",
+        "{name}: {} points ({} read, {} again after machine commands) and {} machine commands sent as read, {} applied; {scheduled} feeds and {} setpoints bit-exact with the host ({n} statuses)",
+        want.len(),
         host.len(),
+        want.len() - host.len(),
+        rec.machine.len(),
+        applied.len(),
         rep.ticks.len()
     );
     rep
@@ -392,6 +480,7 @@ fn a_gcode_program_runs_to_its_end_bit_exact_with_the_host() {
         "settings match the host's",
         "done: ",
         "every feed equal to the host's schedule bit for bit",
+        "machine: 2 spindle/coolant commands sent in the path, 2 applied by the controller, each with the tool at rest at its point",
     ] {
         assert!(r.stderr.contains(want), "{want:?} not in:\n{}", r.stderr);
     }
@@ -681,4 +770,103 @@ fn a_refused_gcode_line_is_named_and_nothing_is_sent() {
         );
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn an_estop_is_the_alarm_until_unlocked_and_settings_are_read_and_written() {
+    if !qemu_available() {
+        return;
+    }
+    let _slot = QEMU_SLOT.lock().unwrap_or_else(|e| e.into_inner());
+    let q = Qemu::start("estop");
+    let script = temp("estop.txt");
+    std::fs::write(&script, "at point 300: estop\n").expect("script");
+    let rec_path = temp("estop.jsonl");
+    let file = repo_root().join("tests/data/shapes/trident.csv");
+    let mut a = q.link_args();
+    a.extend([
+        "send".into(),
+        file.display().to_string(),
+        "--script".into(),
+        script.display().to_string(),
+        "--record".into(),
+        rec_path.display().to_string(),
+    ]);
+    let r = sender(&a, Duration::from_secs(120));
+    assert_eq!(r.code(), Some(7), "alarm; stderr:\n{}", r.stderr);
+    assert!(
+        r.stderr.contains("ALARM: e-stop from the host") && r.stderr.contains("unlock"),
+        "{}",
+        r.stderr
+    );
+    let rec = read_record(&rec_path);
+    let alarm = rec.rx.iter().find_map(|m| match *m {
+        DeviceMsg::Alarm { code, pos_mm, .. } => Some((code, pos_mm)),
+        _ => None,
+    });
+    let (code, pos) = alarm.expect("the firmware reported the alarm");
+    assert_eq!(code, link::AlarmCode::EStopLink);
+    let st = status_json(&q);
+    assert_eq!(st.motion, Motion::Alarm);
+    assert_eq!(st.pos_mm, pos, "stopped where the report says");
+    let pocket = repo_root().join("tests/data/gcode/pocket.ngc");
+    let mut send = q.link_args();
+    send.extend(["send".into(), pocket.display().to_string()]);
+    let r = sender(&send, Duration::from_secs(60));
+    assert_eq!(r.code(), Some(7), "refused in alarm; stderr:\n{}", r.stderr);
+    assert!(r.stderr.contains("nothing was sent"), "{}", r.stderr);
+    let run = |args: &[&str]| {
+        let mut a = q.link_args();
+        a.extend(strings(args));
+        sender(&a, Duration::from_secs(60))
+    };
+    let r = run(&["status"]);
+    assert_eq!(r.code(), Some(0), "{}", r.stderr);
+    assert!(
+        r.stdout.contains("state: Alarm") && r.stdout.contains("ALARM: e-stop from the host"),
+        "{}",
+        r.stdout
+    );
+    let r = run(&["unlock"]);
+    assert_eq!(r.code(), Some(0), "unlock; stderr:\n{}", r.stderr);
+    assert!(r.stderr.contains("unlocked"), "{}", r.stderr);
+    assert_eq!(status_json(&q).motion, Motion::Idle);
+    // A setting: in force at once; QEMU's flash model does not keep it.
+    let r = run(&["settings", "set", "120", "1500"]);
+    assert!(
+        r.stdout.starts_with("$120=1500 (X acceleration"),
+        "{}",
+        r.stdout
+    );
+    assert!(
+        r.code() == Some(0) || (r.code() == Some(5) && r.stderr.contains("flash")),
+        "set; {:?} stderr:\n{}",
+        r.code(),
+        r.stderr
+    );
+    println!(
+        "settings set on QEMU: exit {:?}: {}",
+        r.code(),
+        r.stderr.trim()
+    );
+    let r = run(&["settings", "get", "$120"]);
+    assert_eq!(r.code(), Some(0), "{}", r.stderr);
+    assert!(r.stdout.starts_with("$120=1500 "), "{}", r.stdout);
+    let r = run(&["settings"]);
+    assert_eq!(r.code(), Some(0), "{}", r.stderr);
+    assert_eq!(r.stdout.lines().count(), controller::config::SETTINGS.len());
+    let r = run(&["home"]);
+    assert_eq!(r.code(), Some(5), "home with $22=0; stderr:\n{}", r.stderr);
+    assert!(r.stderr.contains("$22=0"), "{}", r.stderr);
+    // A program runs again, its changed setting listed.
+    let r = sender(&send, Duration::from_secs(120));
+    assert_eq!(r.code(), Some(0), "after unlock; stderr:\n{}", r.stderr);
+    assert!(r.stderr.contains("$120=1500"), "{}", r.stderr);
+    assert!(r.stderr.contains("done: "), "{}", r.stderr);
+    println!(
+        "estop: exit 7 at X{:.3} Y{:.3}, unlock, $120 written and read back, pocket after it in {:.1} s",
+        pos[0] as f64 / 4294967296.0,
+        pos[1] as f64 / 4294967296.0,
+        r.took.as_secs_f64()
+    );
 }

@@ -74,7 +74,14 @@
 //! quadratic of each constant-jerk phase, and the node's distance must lie
 //! outside it. Nodes crossed within the tick are checked the same way. When
 //! no candidate is safe (a phase change inside the tick, a feed hold, a
-//! lower override), the executor follows the committed stop exactly. Hence
+//! lower override), the executor follows the committed stop exactly. When
+//! a tick's jerk is large against the acceleration bound (`J·Ts > ρA/8`),
+//! the steps between candidates are too coarse (at `J·Ts >= ρA` a tick goes
+//! from no acceleration to full), and riding a ceiling would alternate
+//! between full acceleration and the stop from tick to tick; there the
+//! executor also halves the range of the tick's end acceleration three
+//! times between the last safe candidate and the first unsafe one (the
+//! jerk then is within `±J` as well). Hence
 //! tangential jerk `<= J`, tangential acceleration `<= ρA`, and every
 //! physical ceiling respected (a lower override is reached at the
 //! acceleration limit, as in Grbl). The per-axis jerk of a polyline is not

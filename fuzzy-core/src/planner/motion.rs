@@ -764,18 +764,39 @@ impl<const N: usize> Motion<N> {
                 if (c == 1 || c == 2) && !slow {
                     continue;
                 }
-                let phases = step_phases(self.a, jerk, acc);
-                let (v2, a2, dx) = integrate(self.v, self.a, &phases, ONE);
-                if dx < 0 {
-                    continue; // would reverse
-                }
-                let x2 = self.x.saturating_add(dx);
-                if !self.crossings_ok(k, &phases, v2, x2) {
-                    continue;
-                }
-                if self.safe(self.seg_of(k, x2), x2, v2, a2) {
-                    next = Some((x2, v2, a2));
+                next = self.candidate(k, &step_phases(self.a, jerk, acc));
+                if next.is_some() {
                     break;
+                }
+            }
+            // Between the candidates: the end-of-tick acceleration halved
+            // three times between the last safe one and the first unsafe,
+            // so that at a high jerk limit (a tick's `J` larger than the
+            // acceleration bound) the speed settles on a ceiling instead of
+            // alternating between full acceleration and the committed stop.
+            // Below holding the acceleration when nothing was safe; above
+            // it when only that was. Only when a tick's jerk moves the
+            // acceleration by more than an eighth of its bound: at lower
+            // jerk limits the candidates are fine enough.
+            let hi_a = (self.a + j).min(acc);
+            let (lo, hi) = match next {
+                _ if j <= acc / 8 => (0, 0),
+                None => ((self.a - j).max(-acc), self.a),
+                Some((_, _, a2)) if a2 == self.a => (self.a, hi_a),
+                _ => (0, 0),
+            };
+            let (mut lo, mut hi) = (lo, hi);
+            for _ in 0..HALVINGS {
+                if hi - lo <= 1 {
+                    break;
+                }
+                let a_end = lo + (hi - lo) / 2;
+                match self.candidate(k, &[(ONE, a_end - self.a), (0, 0)]) {
+                    Some(c) => {
+                        next = Some(c);
+                        lo = a_end;
+                    }
+                    None => hi = a_end,
                 }
             }
         }
@@ -825,6 +846,20 @@ impl<const N: usize> Motion<N> {
         }
     }
 
+    /// The state after a tick of `phases` from segment `k`, if it moves
+    /// forwards, passes the nodes it crosses within their envelope and is
+    /// safe.
+    #[inline(never)]
+    fn candidate(&self, k: usize, phases: &[(i64, i64); 2]) -> Option<(i64, i64, i64)> {
+        let (v2, a2, dx) = integrate(self.v, self.a, phases, ONE);
+        if dx < 0 {
+            return None; // would reverse
+        }
+        let x2 = self.x.saturating_add(dx);
+        (self.crossings_ok(k, phases, v2, x2) && self.safe(self.seg_of(k, x2), x2, v2, a2))
+            .then_some((x2, v2, a2))
+    }
+
     /// Whether a last step of `d` onto a stop, then rest, keeps the third
     /// differences of the arc length (the discrete jerk: this step's, the
     /// next tick's and the one after) within the jerk limit.
@@ -834,11 +869,21 @@ impl<const N: usize> Motion<N> {
         (change - self.step_change).abs() <= j && (d + change).abs() <= j && d <= j
     }
 
-    /// Nodes crossed during a tick of `phases` (jerk >= 0, so the speed is
-    /// convex in time and at most `max(v, v2)`): each is passed no faster
-    /// than its envelope; the end of what is planned is not passed.
+    /// Nodes crossed during a tick of `phases` (one jerk, held once the
+    /// acceleration bound is reached): each is passed no faster than its
+    /// envelope; the end of what is planned is not passed. The speed is at
+    /// most `max(v, v2)`, or, at a negative jerk from `a > 0`, its peak
+    /// `v + a²/2|j|`. A speed convex in time (jerk >= 0) is at most the
+    /// limit on one interval; a concave one that starts under the limit and
+    /// rises over it is taken as under it only before the first crossing
+    /// (conservative).
     fn crossings_ok(&self, k: usize, phases: &[(i64, i64)], v2: i64, x2: i64) -> bool {
-        let vhi = self.v.max(v2);
+        let jerk = phases.first().map_or(0, |p| p.1);
+        let mut vhi = self.v.max(v2);
+        if jerk < 0 && self.a > 0 {
+            let peak = mul(self.a, div(self.a, -jerk)) / 2;
+            vhi = vhi.max(self.v.saturating_add(peak));
+        }
         let mut i = k + 1;
         while let Some(n) = self.nodes.get(i) {
             if n.s > x2 {
@@ -916,6 +961,10 @@ impl<const N: usize> Motion<N> {
         Point3Mm::from_bits(x, y, z)
     }
 }
+
+/// How often the executor halves the range of a tick's end acceleration
+/// between the last safe candidate and the first unsafe one.
+const HALVINGS: usize = 3;
 
 /// A committed stop from arc length `x` on segment `k`.
 struct Stop {

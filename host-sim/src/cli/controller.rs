@@ -1,5 +1,6 @@
 //! `host-sim controller`: export the controller, evaluate it on CSV inputs.
 
+use crate::output::FileOrStdout;
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -117,14 +118,8 @@ pub enum Centroid {
     Sampled,
 }
 
-fn output(path: &Option<PathBuf>) -> Result<Box<dyn Write>> {
-    Ok(match path {
-        // Buffered: one write per row to a file would be a system call each.
-        Some(p) => Box::new(std::io::BufWriter::new(
-            std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?,
-        )),
-        None => Box::new(std::io::BufWriter::new(std::io::stdout().lock())),
-    })
+fn output(path: &Option<PathBuf>) -> Result<FileOrStdout> {
+    FileOrStdout::create(path.as_deref())
 }
 
 /// Run a `controller` subcommand.
@@ -138,7 +133,7 @@ pub fn run(args: &Args) -> Result<()> {
             let text = export(*controller, *format)?;
             let mut out = output(path)?;
             out.write_all(text.as_bytes())?;
-            out.flush()?;
+            out.finish()?;
         }
         Command::Eval {
             input,
@@ -191,7 +186,7 @@ pub fn run(args: &Args) -> Result<()> {
                 };
                 writeln!(out, "{k},{d},{},{}", e.output.to_num::<f64>(), e.fired)?;
             }
-            out.flush()?;
+            out.finish()?;
             if clamped > 0 {
                 eprintln!(
                     "note: {clamped} inputs outside the universes were clamped (MATLAB evaluates them unclamped; compare inside)"

@@ -83,7 +83,7 @@ pub fn run(args: &Args) -> Result<()> {
             schedule,
             run,
         )?;
-        std::fs::write(
+        crate::output::write(
             dir.join(format!("{name}_plan.json")),
             serde_json::to_string_pretty(figs)?,
         )?;
@@ -104,8 +104,8 @@ pub fn run(args: &Args) -> Result<()> {
     }
     text.push('\n');
     text.push_str(&figures::summary(&all));
-    std::fs::write(dir.join("plan.txt"), &text)?;
-    std::fs::write(dir.join("plan.json"), serde_json::to_string_pretty(&all)?)?;
+    crate::output::write(dir.join("plan.txt"), &text)?;
+    crate::output::write(dir.join("plan.json"), serde_json::to_string_pretty(&all)?)?;
     print!("{text}");
     eprintln!("written to {}", dir.display());
     Ok(())
@@ -142,10 +142,8 @@ pub fn plan_one(
     Ok((prepared.clone(), schedule, run, figs))
 }
 
-fn create(path: &Path) -> Result<std::io::BufWriter<std::fs::File>> {
-    Ok(std::io::BufWriter::new(
-        std::fs::File::create(path).with_context(|| format!("creating {}", path.display()))?,
-    ))
+fn create(path: &Path) -> Result<crate::output::Output> {
+    crate::output::Output::create(path)
 }
 
 fn write_ticks(path: &Path, run: &PlannedRun) -> Result<()> {
@@ -169,8 +167,7 @@ fn write_ticks(path: &Path, run: &PlannedRun) -> Result<()> {
             t.state
         )?;
     }
-    w.flush()?;
-    Ok(())
+    w.finish()
 }
 
 fn write_points(
@@ -209,6 +206,5 @@ fn write_points(
             p.envelope_mm_per_s * 60.0
         )?;
     }
-    w.flush()?;
-    Ok(())
+    w.finish()
 }

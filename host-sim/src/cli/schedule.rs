@@ -3,11 +3,12 @@
 use std::io::Write;
 use std::path::PathBuf;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use fuzzy_core::lin2021::{Lin2021Controller, VariationScale, CONTROLLER};
 use fuzzy_core::scheduler::{Scheduler, SchedulerConfig};
 use fuzzy_core::units::{CurvaturePerMm, FeedMmPerMin};
 
+use crate::output::FileOrStdout;
 use crate::path_csv;
 
 /// Arguments of `schedule`.
@@ -47,12 +48,7 @@ pub fn run(args: &Args) -> Result<()> {
     scheduler
         .run(points.iter().copied(), |p| rows.push(p))
         .map_err(|(i, e)| anyhow::anyhow!("line {}: {e}", points.get(i).map_or(0, |p| p.tag)))?;
-    let mut out: Box<dyn Write> = match &args.output {
-        Some(p) => {
-            Box::new(std::fs::File::create(p).with_context(|| format!("creating {}", p.display()))?)
-        }
-        None => Box::new(std::io::stdout().lock()),
-    };
+    let mut out = FileOrStdout::create(args.output.as_deref())?;
     writeln!(out, "line,x_mm,y_mm,z_mm,curvature_per_mm,variation_per_mm,fraction,fuzzy_feed_mm_per_min,feed_mm_per_min")?;
     for r in &rows {
         let [x, y, z] = r.point.pos.to_f64();
@@ -67,6 +63,7 @@ pub fn run(args: &Args) -> Result<()> {
             r.feed.to_f64()
         )?;
     }
+    out.finish()?;
     if scheduler.merged_duplicates() > 0 {
         eprintln!(
             "note: {} duplicate points merged",

@@ -61,9 +61,7 @@ pub fn run(args: &Args) -> Result<()> {
         args.f_max
     );
     let traj = dir.join(format!("{stem}_motion.csv"));
-    let mut w = std::io::BufWriter::new(
-        std::fs::File::create(&traj).with_context(|| format!("creating {}", traj.display()))?,
-    );
+    let mut w = crate::output::Output::create(&traj)?;
     writeln!(
         w,
         "t_s,cmd_x_mm,cmd_y_mm,cmd_z_mm,x_mm,y_mm,z_mm,contour_error_mm,feed_mm_per_min"
@@ -85,9 +83,9 @@ pub fn run(args: &Args) -> Result<()> {
             v
         )?;
     }
-    w.flush()?;
+    w.finish()?;
     let sched = dir.join(format!("{stem}_schedule.csv"));
-    let mut w = std::io::BufWriter::new(std::fs::File::create(&sched)?);
+    let mut w = crate::output::Output::create(&sched)?;
     writeln!(
         w,
         "line,x_mm,y_mm,z_mm,curvature_per_mm,variation_per_mm,feed_mm_per_min"
@@ -105,8 +103,8 @@ pub fn run(args: &Args) -> Result<()> {
             r.schedule.feeds_mm_per_min[i]
         )?;
     }
-    w.flush()?;
-    std::fs::write(
+    w.finish()?;
+    crate::output::write(
         dir.join(format!("{stem}_metrics.json")),
         serde_json::to_string_pretty(&r.metrics)?,
     )?;

@@ -87,6 +87,20 @@ impl MachineConfig {
         }
     }
 
+    /// The machine's acc/dec time constants, summed, s: at least the time
+    /// its filters add after the interpolation ends.
+    pub fn time_constants_s(&self) -> f64 {
+        match self {
+            MachineConfig::Fanuc(f) => match f.mode {
+                fanuc::FanucMode::Conventional => f.p1622_time_constant_ms / 1000.0,
+                fanuc::FanucMode::HighAccuracy => {
+                    (f.p1769_time_constant_ms + f.p1772_bell_time_ms) / 1000.0
+                }
+            },
+            MachineConfig::ServoXy(s) => s.accdec_time_constant_ms / 1000.0,
+        }
+    }
+
     /// Run the machine on `points` with `feeds_mm_per_min[i]` for the block
     /// ending at point `i`.
     pub fn simulate(&self, points: &[[f64; 3]], feeds_mm_per_min: &[f64], ts_s: f64) -> Motion {

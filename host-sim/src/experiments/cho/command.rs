@@ -85,8 +85,8 @@ pub fn run(args: &Args) -> Result<()> {
     print!("{text}");
     if let Some(dir) = &args.out_dir {
         std::fs::create_dir_all(dir).with_context(|| format!("{}", dir.display()))?;
-        std::fs::write(dir.join("table.txt"), &text)?;
-        std::fs::write(dir.join("cho.json"), serde_json::to_string_pretty(&rows)?)?;
+        crate::output::write(dir.join("table.txt"), &text)?;
+        crate::output::write(dir.join("cho.json"), serde_json::to_string_pretty(&rows)?)?;
         for r in &rows {
             let tag = if r.printed_rules {
                 "printed"
@@ -103,7 +103,7 @@ pub fn run(args: &Args) -> Result<()> {
                     ));
                 }
                 let f = dir.join(format!("{}_{tag}_{name}.csv", r.contour.name()));
-                std::fs::write(&f, csv).with_context(|| format!("{}", f.display()))?;
+                crate::output::write(&f, csv).with_context(|| format!("{}", f.display()))?;
             }
         }
     }

@@ -182,8 +182,9 @@ impl ServoXyConfig {
             "servo_xy: step_us must be > 0 and at most the interpolation period"
         );
         anyhow::ensure!(
-            self.accdec_time_constant_ms.is_finite() && self.accdec_time_constant_ms >= 0.0,
-            "servo_xy: accdec_time_constant_ms must be ≥ 0"
+            self.accdec_time_constant_ms.is_finite()
+                && (0.0..=10_000.0).contains(&self.accdec_time_constant_ms),
+            "servo_xy: accdec_time_constant_ms must be in [0, 10000]"
         );
         Ok(())
     }

@@ -124,8 +124,8 @@ pub fn run(args: &Args) -> Result<()> {
     print!("{text}");
     if let Some(dir) = &args.out_dir {
         std::fs::create_dir_all(dir).with_context(|| format!("{}", dir.display()))?;
-        std::fs::write(dir.join("table.txt"), &text)?;
-        std::fs::write(
+        crate::output::write(dir.join("table.txt"), &text)?;
+        crate::output::write(
             dir.join("corner.json"),
             serde_json::to_string_pretty(&rows)?,
         )?;
@@ -139,7 +139,7 @@ pub fn run(args: &Args) -> Result<()> {
                 FanucMode::HighAccuracy => "high_accuracy",
             };
             let f = dir.join(format!("{i}_{stem}_{mode}.nc"));
-            std::fs::write(&f, corner_comp::gcode(c))
+            crate::output::write(&f, corner_comp::gcode(c))
                 .with_context(|| format!("{}", f.display()))?;
         }
     }

@@ -78,10 +78,12 @@ impl Default for FanucConfig {
 impl FanucConfig {
     /// Check that every parameter is usable.
     pub fn validate(&self) -> anyhow::Result<()> {
-        let ok = |v: f64| v.is_finite() && v >= 0.0;
+        // Real controls use tens of ms; ten seconds bounds the filters'
+        // lengths.
+        let ok = |v: f64| v.is_finite() && (0.0..=10_000.0).contains(&v);
         anyhow::ensure!(
             ok(self.p1622_time_constant_ms) && ok(self.p1769_time_constant_ms),
-            "fanuc: time constants must be finite and ≥ 0 ms"
+            "fanuc: time constants must be in [0, 10000] ms"
         );
         anyhow::ensure!(
             self.p1783_corner_feed_difference_mm_per_min.is_finite()
@@ -96,7 +98,7 @@ impl FanucConfig {
         );
         anyhow::ensure!(
             ok(self.p1772_bell_time_ms),
-            "fanuc: p1772 must be finite and ≥ 0 ms"
+            "fanuc: p1772 must be in [0, 10000] ms"
         );
         Ok(())
     }

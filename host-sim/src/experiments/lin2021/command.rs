@@ -251,5 +251,5 @@ fn method_of(name: &str) -> Method {
 
 fn write(dir: &Path, name: &str, text: &str) -> Result<()> {
     let p = dir.join(name);
-    std::fs::write(&p, text).with_context(|| format!("writing {}", p.display()))
+    crate::output::write(&p, text).with_context(|| format!("writing {}", p.display()))
 }

@@ -267,9 +267,9 @@ pub fn run(a: &Args) -> Result<()> {
     );
     if let Some(dir) = &a.out {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-        std::fs::write(dir.join("program.nc"), &program)?;
-        std::fs::write(dir.join("moves.csv"), moves_csv(&moves))?;
-        std::fs::write(
+        crate::output::write(dir.join("program.nc"), &program)?;
+        crate::output::write(dir.join("moves.csv"), moves_csv(&moves))?;
+        crate::output::write(
             dir.join("summary.json"),
             serde_json::to_string_pretty(&s)? + "\n",
         )?;

@@ -162,7 +162,7 @@ pub fn run(a: &Args) -> Result<()> {
     println!("paper (Fig. 13): override ≈ 78 % (23.4 mm/min), peak force held near the reference");
     if let Some(dir) = &a.out {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-        std::fs::write(dir.join("revolutions.csv"), revolutions_csv(&o))?;
+        crate::output::write(dir.join("revolutions.csv"), revolutions_csv(&o))?;
         let summary = Summary {
             controlled: e.controlled,
             law,
@@ -179,7 +179,7 @@ pub fn run(a: &Args) -> Result<()> {
             settling_time_s: s.settling_time_s,
             paper_override_pct: 78.0,
         };
-        std::fs::write(
+        crate::output::write(
             dir.join("summary.json"),
             serde_json::to_string_pretty(&summary)? + "\n",
         )?;
