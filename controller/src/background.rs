@@ -34,7 +34,8 @@
 //!    it is done its report (`DeviceMsg::Aborted`) is sent. A machine
 //!    command ends the path and waits until the tool is at rest at its end
 //!    (the ring executed), then takes effect (`DeviceMsg::Applied`), and a
-//!    spin-up delay holds the next path back ([`crate::spindle`]);
+//!    spin-up delay or a dwell (`MachineCmd::Dwell`, G4) holds the next
+//!    path back ([`crate::spindle`]);
 //! 5. link loss: with the path open and the tool stopped for want of it
 //!    (the planner's controlled stop on underrun), a link silent for the
 //!    timeout (`$206`) trips [`AlarmCode::LinkLoss`];
@@ -739,9 +740,15 @@ impl<'a> Background<'a> {
         }
         let spin_up = self.spindle.apply(w.cmd);
         io.outputs(self.spindle.outputs(&self.config));
-        if spin_up {
-            let ms = self.config.get(Key::SpinUp) as u64;
-            let ticks = ms * 1000 / self.config.tick_us().max(1) as u64;
+        // The next path waits: a dwell's time (G4, from here at rest), or
+        // the spin-up delay after a start or a reversal.
+        let wait_ms = match w.cmd {
+            MachineCmd::Dwell { ms } => ms as u64,
+            _ if spin_up => self.config.get(Key::SpinUp).max(0) as u64,
+            _ => 0,
+        };
+        if wait_ms > 0 {
+            let ticks = wait_ms * 1000 / self.config.tick_us().max(1) as u64;
             self.hold_until = now.wrapping_add(ticks.min(u32::MAX as u64 / 2) as u32);
         }
         self.post(DeviceMsg::Applied {

@@ -570,7 +570,10 @@ impl DeviceLink {
                 self.restart_needed |= info.apply == Apply::Restart;
                 return Ok(Reply::Setting(id, value));
             }
-            HostMsg::Machine { seq, cmd } => (seq, Some(Cmd::Machine { seq, cmd })),
+            HostMsg::Machine { seq, cmd } => (
+                seq,
+                machine_in_range(&cmd).then_some(Cmd::Machine { seq, cmd }),
+            ),
             HostMsg::Hold => {
                 self.controls.hold = Some(true);
                 return Ok(Reply::Ack);
@@ -725,4 +728,10 @@ impl DeviceLink {
             step_late_ticks: exec.steps.late_windows,
         }
     }
+}
+
+/// A machine command the controller can carry out: a dwell of at most
+/// [`link::DWELL_MAX_MS`] (a longer one is refused, `OutOfRange`).
+fn machine_in_range(c: &link::MachineCmd) -> bool {
+    !matches!(c, link::MachineCmd::Dwell { ms } if *ms > link::DWELL_MAX_MS)
 }

@@ -110,6 +110,8 @@ impl Spindle {
                 self.mist = mist;
                 false
             }
+            // The background waits it out; no output changes.
+            MachineCmd::Dwell { .. } => false,
         }
     }
 

@@ -681,6 +681,61 @@ fn spindle_commands_take_effect_at_their_point_of_the_path() {
         .all(|p| x_of(*p) == 20.0));
 }
 
+/// A dwell (G4 P0.3) between two paths: the tool at rest at the end of the
+/// first for 300 ms (ticks) before the second starts; a dwell over an hour
+/// is refused (`OutOfRange`) and nothing changes.
+#[test]
+fn a_dwell_holds_the_tool_at_its_point() {
+    let mut b = Bench::new();
+    let a = line_x(0.0, 10.0, 0.5);
+    let bb = line_x(10.0, 20.0, 0.5);
+    b.client.start_path(3000i64 << 32, 60i64 << 32);
+    for p in &a {
+        b.client.point(p.map(mm), None);
+    }
+    let dwell = b.client.machine(MachineCmd::Dwell { ms: 300 });
+    for p in &bb {
+        b.client.point(p.map(mm), None);
+    }
+    b.client.end_path();
+    let goal = [mm(20.0), 0, 0];
+    b.run_until(40_000, |s| s.motion == Motion::Idle && s.pos_mm == goal);
+    let applied: Vec<(u32, u32)> = b
+        .inbox
+        .iter()
+        .filter_map(|m| match *m {
+            DeviceMsg::Applied { seq, point, .. } => Some((seq, point)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(applied, vec![(dwell, a.len() as u32)]);
+    let pos = &b.dev.axes.positions;
+    let first = pos.iter().position(|p| x_of(*p) == 10.0).unwrap();
+    let still = pos[first..]
+        .iter()
+        .take_while(|p| x_of(**p) == 10.0)
+        .count();
+    assert!(still >= 300, "moved after {still} ticks");
+    assert!(still < 300 + 100, "held {still} ticks");
+
+    let before = b.inbox.len();
+    b.client.machine(MachineCmd::Dwell {
+        ms: link::DWELL_MAX_MS + 1,
+    });
+    b.run(50);
+    assert!(
+        b.inbox[before..].iter().any(|m| matches!(
+            m,
+            DeviceMsg::Error {
+                code: link::ErrorCode::OutOfRange,
+                ..
+            }
+        )),
+        "{:?}",
+        &b.inbox[before..]
+    );
+}
+
 /// A reset by the watchdog (the firmware's start-up trips this alarm when
 /// the chip says so): the controller starts in the alarm state, reports it,
 /// and takes paths only after an unlock.

@@ -20,7 +20,7 @@ pub enum SpindleDir {
     Ccw,
 }
 
-/// A machine command of a program (spindle, coolant), in order with the
+/// A machine command of a program (spindle, coolant, dwell), in order with the
 /// motion: it takes effect once the tool has reached a point of the path.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum MachineEvent {
@@ -38,6 +38,12 @@ pub enum MachineEvent {
         flood: bool,
         /// Mist on.
         mist: bool,
+    },
+    /// A dwell (G4 P, or a canned cycle's P at the hole's bottom): the tool
+    /// at rest for this long.
+    Dwell {
+        /// Seconds.
+        s: f64,
     },
 }
 

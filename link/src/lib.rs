@@ -250,7 +250,16 @@ pub enum MachineCmd {
         /// Mist coolant on.
         mist: bool,
     },
+    /// A dwell (G4 P): the tool at rest this long before the next path
+    /// starts (at most [`DWELL_MAX_MS`]).
+    Dwell {
+        /// Milliseconds.
+        ms: u32,
+    },
 }
+
+/// The longest dwell a `MachineCmd::Dwell` may ask for, ms (one hour).
+pub const DWELL_MAX_MS: u32 = 3_600_000;
 
 /// The spindle's direction, or off.
 #[derive(Serialize, Deserialize, Clone, Copy, Debug, Default, PartialEq, Eq)]

@@ -88,8 +88,9 @@ pub enum Item {
 }
 
 /// How a G-code machine word becomes the link's command: the speed in
-/// whole rpm (rounded; an off spindle is sent with 0).
-fn machine_cmd(e: &MachineEvent) -> Option<MachineCmd> {
+/// whole rpm (rounded; an off spindle is sent with 0), a dwell in whole
+/// ms (rounded; `None` beyond [`link::DWELL_MAX_MS`]).
+pub fn machine_cmd(e: &MachineEvent) -> Option<MachineCmd> {
     Some(match *e {
         MachineEvent::Spindle { dir, rpm } => {
             let dir = match dir {
@@ -108,6 +109,13 @@ fn machine_cmd(e: &MachineEvent) -> Option<MachineCmd> {
             MachineCmd::Spindle { dir, speed_rpm }
         }
         MachineEvent::Coolant { flood, mist } => MachineCmd::Coolant { flood, mist },
+        MachineEvent::Dwell { s } => {
+            let ms = (s * 1000.0).round();
+            if !(ms.is_finite() && (0.0..=link::DWELL_MAX_MS as f64).contains(&ms)) {
+                return None;
+            }
+            MachineCmd::Dwell { ms: ms as u32 }
+        }
     })
 }
 
@@ -125,6 +133,7 @@ pub fn cmd_text(c: &MachineCmd) -> String {
             (false, true) => "M7".into(),
             (true, true) => "M7 M8".into(),
         },
+        MachineCmd::Dwell { ms } => format!("G4 P{}", ms as f64 / 1000.0),
     }
 }
 
@@ -250,7 +259,13 @@ pub fn load(spec: &str, config: &SimConfig) -> Result<Program, InputError> {
         let cmd = machine_cmd(e).ok_or_else(|| InputError {
             file: spec.to_string(),
             line: (*line > 0).then_some(*line),
-            message: format!("{e:?}: a spindle speed the controller cannot take"),
+            message: match e {
+                MachineEvent::Dwell { s } => format!(
+                    "G4 P{s}: a dwell longer than the controller takes ({} s)",
+                    link::DWELL_MAX_MS / 1000
+                ),
+                _ => format!("{e:?}: a spindle speed the controller cannot take"),
+            },
         })?;
         events.push(Event {
             after: *after,

@@ -42,7 +42,7 @@ use std::time::{Duration, Instant};
 
 use controller::settings::MOTION_CONFIG;
 use fuzzy_core::scheduler::PathPoint;
-use link::{DeviceMsg, MachineCmd, Motion, PlanEvent, SpindleDir, Status};
+use link::{DeviceMsg, MachineCmd, Motion, PlanEvent, Status};
 use system_tests::firmware::{firmware_elf, on_grid, qemu_available, repo_root, PlanLog};
 use system_tests::planned;
 
@@ -314,24 +314,7 @@ fn verify(name: &str, file: &Path, rec: &Record, extra: &[Status]) -> planned::R
         want.push(*h);
         let here: Vec<_> = read.events.iter().filter(|e| e.0 == i).collect();
         for (_, _, e) in &here {
-            want_machine.push(match *e {
-                host_sim::toolpath::MachineEvent::Spindle { dir, rpm } => {
-                    let dir = match dir {
-                        host_sim::toolpath::SpindleDir::Off => SpindleDir::Off,
-                        host_sim::toolpath::SpindleDir::Cw => SpindleDir::Cw,
-                        host_sim::toolpath::SpindleDir::Ccw => SpindleDir::Ccw,
-                    };
-                    let speed_rpm = if dir == SpindleDir::Off {
-                        0
-                    } else {
-                        rpm.round() as u32
-                    };
-                    MachineCmd::Spindle { dir, speed_rpm }
-                }
-                host_sim::toolpath::MachineEvent::Coolant { flood, mist } => {
-                    MachineCmd::Coolant { flood, mist }
-                }
-            });
+            want_machine.push(sender::program::machine_cmd(e).expect("a command the link carries"));
         }
         if !here.is_empty() && i + 1 < host.len() {
             want.push(PathPoint {

@@ -28,9 +28,10 @@
 //! | G89 | feed to the bottom, dwell `P`, feed out |
 //!
 //! The peck clearance is the block's `D` word or `gcode.peck_clearance_mm`
-//! (LinuxCNC's metric default is 1 mm). Dwells do not move the tool and are
-//! not simulated. `R`, the depth, `P`, `Q` and G87's `I J K` stay in force for
-//! the following blocks of the same cycle.
+//! (LinuxCNC's metric default is 1 mm). Dwells do not move the tool: they
+//! become machine events (`MachineEvent::Dwell`, which the sender sends),
+//! not simulated time. `R`, the depth, `P`, `Q` and G87's `I J K` stay in
+//! force for the following blocks of the same cycle.
 
 use anyhow::{anyhow, bail, Result};
 
@@ -170,6 +171,9 @@ pub fn run(it: &mut Interp, b: &Blk, code: u32) -> Result<()> {
             81 | 82 | 86 => {
                 let t = to(it, bottom);
                 it.feed_to(t, line)?;
+                if g != 81 {
+                    it.out.dwell(line, it.cycle.p.unwrap_or(0.0));
+                }
                 let t = to(it, clear);
                 it.move_to(t, None, line)?;
             }
@@ -194,6 +198,7 @@ pub fn run(it: &mut Interp, b: &Blk, code: u32) -> Result<()> {
             74 | 84 | 89 => {
                 let t = to(it, bottom);
                 it.feed_to(t, line)?;
+                it.out.dwell(line, it.cycle.p.unwrap_or(0.0));
                 let t = to(it, clear);
                 it.feed_to(t, line)?;
             }

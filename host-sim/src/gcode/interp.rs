@@ -1094,6 +1094,9 @@ impl<'s> Interp<'s> {
         if b.has_g(4, 0) && b.get('P').is_none() {
             bail!("line {line}: G4 dwell without a P word");
         }
+        if b.has_g(4, 0) && b.get('P').is_some_and(|p| !(p.is_finite() && p >= 0.0)) {
+            bail!("line {line}: G4 dwell P must be a time of 0 s or more");
+        }
         for &(g, m) in &b.g {
             match (g, m) {
                 (17, 0) => self.plane = Plane::Xy,
@@ -1280,7 +1283,8 @@ impl<'s> Interp<'s> {
     fn nonmodal(&mut self, b: &Blk, g: u32, m: u32) -> Result<()> {
         let line = b.line;
         match (g, m) {
-            (4, 0) => {}
+            // P in seconds (RS274/NGC, LinuxCNC and Grbl alike).
+            (4, 0) => self.out.dwell(line, b.get('P').unwrap_or(0.0)),
             (28, 0) | (30, 0) => {
                 self.comp_check(line, &format!("G{g}"))?;
                 let base = if g == 28 { P_G28 } else { P_G30 };

@@ -394,6 +394,31 @@ mod tests {
     }
 
     #[test]
+    fn dwells_are_events_at_their_point() {
+        use crate::toolpath::MachineEvent;
+        let t = p("G1 X1 F100\nG4 P0.5\nG1 X2\nG4 P0\nG1 X3\n").unwrap();
+        assert_eq!(t.events, vec![(1, 2, MachineEvent::Dwell { s: 0.5 })]);
+        assert!(p("G1 X1 F100\nG4 P-1\n").is_err());
+        // A drilling cycle's P: a dwell at the bottom of every hole; G81's
+        // holes have none (even with a P still in force).
+        let t = p("G1 Z5 F100\nG82 X1 Y1 Z-2 R1 P0.25\nX2\nG80\nG81 X3 Y3 Z-2 R1\nG80\n").unwrap();
+        let dwells: Vec<_> = t
+            .events
+            .iter()
+            .filter(|e| matches!(e.2, MachineEvent::Dwell { .. }))
+            .collect();
+        assert_eq!(dwells.len(), 2, "{:?}", t.events);
+        for d in &dwells {
+            assert_eq!(d.2, MachineEvent::Dwell { s: 0.25 });
+            assert_eq!(t.points[d.0][2], -2.0, "at the bottom");
+        }
+        assert_eq!(
+            [t.points[dwells[0].0][0], t.points[dwells[1].0][0]],
+            [1.0, 2.0]
+        );
+    }
+
+    #[test]
     fn documented_skips_do_not_change_the_path() {
         let a = p("G1 X1 F100\nG1 X2\n").unwrap();
         let b =

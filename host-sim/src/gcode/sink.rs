@@ -78,6 +78,14 @@ impl Sink {
         self.event(line, MachineEvent::Coolant { flood, mist });
     }
 
+    /// A dwell of `s` seconds after the last point so far (G4, or a canned
+    /// cycle's P at the bottom of a hole).
+    pub fn dwell(&mut self, line: u32, s: f64) {
+        if s > 0.0 {
+            self.event(line, MachineEvent::Dwell { s });
+        }
+    }
+
     /// An S word of block `line` that has no M3/M4/M5: a new speed of a
     /// running spindle is an event.
     pub fn s_word(&mut self, line: u32, rpm: f64) {
