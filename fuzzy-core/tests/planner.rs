@@ -419,8 +419,9 @@ fn real_gcode_within_limits() {
 fn dense_curves_run_at_the_corner_share_of_the_acceleration() {
     // Circles sampled far finer than a tick of travel: the corner limit
     // weighs each vertex by the second difference's hat function, so the
-    // tool runs near v²κ = (1 − ρ)·A (here 0.5 · 2000 mm/s²), not a
-    // fraction of it, and no axis exceeds its limit.
+    // tool runs near what the per-axis box leaves for the turn,
+    // v²κ·|n_a| <= A_a − ρ·A·|t_a| on every axis (normal n, tangent t), not
+    // a fraction of it, and no axis exceeds its limit.
     let cfg = MotionConfig::default();
     for (r, h) in [(2.0f64, 0.005f64), (5.0, 0.02), (20.0, 0.05)] {
         let n = (2.0 * std::f64::consts::PI * r / h) as usize;
@@ -432,10 +433,16 @@ fn dense_curves_run_at_the_corner_share_of_the_acceleration() {
             .collect();
         let points = constant(&pts, 20_000);
         let (plan, accel) = whole_plan(&points, cfg);
-        let ceiling = plan[plan.len() / 2].ceiling.to_f64();
-        let centripetal = (1000.0 * r).sqrt() * 60.0; // mm/min
+        let mid = &plan[plan.len() / 2];
+        let ceiling = mid.ceiling.to_f64();
+        let [x, y, _] = mid.pos.to_f64();
+        let (n, t) = ([x / r, y / r], [-y / r, x / r]);
+        let (a, rho) = (2000.0, cfg.tangential_share.to_num::<f64>());
+        let centripetal = (0..2)
+            .map(|k| ((a - rho * a * t[k].abs()) * r / n[k].abs()).sqrt() * 60.0)
+            .fold(f64::INFINITY, f64::min); // mm/min
         let expect = centripetal.min(cfg.feed_max.to_f64());
-        eprintln!("circle r {r} mm, chords {h} mm: ceiling {ceiling:.0} mm/min, √((1 − ρ)·A·r) {centripetal:.0}");
+        eprintln!("circle r {r} mm, chords {h} mm: ceiling {ceiling:.0} mm/min, per-axis box {centripetal:.0}");
         assert!(
             ceiling >= 0.93 * expect && ceiling <= expect + 1.0,
             "r {r}: {ceiling}"

@@ -87,6 +87,8 @@ pub(crate) struct Limits {
     pub axis_speed: [i64; 3],
     /// Per-axis acceleration reserved for direction changes, `(1 − ρ)·A_a`.
     pub corner_accel: [i64; 3],
+    /// Per-axis acceleration `A_a`.
+    pub axis_accel: [i64; 3],
     /// Tangential acceleration limit `ρ·min_a A_a`.
     pub accel: i64,
     /// Deceleration of the envelope (`0.95 ·` [`Self::accel`]).
@@ -210,10 +212,12 @@ impl MotionConfig {
         if jerk < 1 << 8 || feed_max.max(axis_max) >= 15 << 32 {
             return Err(ConfigError::Resolution);
         }
+        let axis_accel = self.axis_accel_max_mm_s2.map(accel);
         Ok(Limits {
             feed_max,
             axis_speed: self.axis_speed_max.map(speed),
             corner_accel: corner,
+            axis_accel,
             accel: tangential,
             envelope_decel: tangential - tangential / 20,
             jerk,

@@ -25,17 +25,24 @@
 //!   (steps of `u = v·Ts` either side) is the tangential change plus
 //!   `Σ_k Δd_k,a · w_k`, where each vertex `k` within `u` of `c` weighs
 //!   `w_k = u − |s_k − c|` (a hat: the travel between the vertex and the far
-//!   end of the stencil). Keeping the tangential part within `ρ·A_a` (the
-//!   executor) leaves `Σ_k |Δd_k,a|·(u − |s_k − c|)⁺ <= (1 − ρ)·A_a·Ts²` for
-//!   the direction changes. As a function of `c` that sum is piecewise
+//!   end of the stencil). Near vertices the executor keeps the tangential
+//!   acceleration within `ρ·min A`, so its part on axis `a` is at most
+//!   `ρ·min A·τ_a`, where `τ_a` bounds `|d_a|` of every segment in the
+//!   stencil: the outgoing segment's `|d_a|` plus the `|Δd_k,a|` of the
+//!   vertices counted (the segments' directions differ by those), capped
+//!   at one. That leaves `B_a = A_a − ρ·min A·τ_a` (at least
+//!   `(1 − ρ)·A_a`) for the direction changes: `Σ_k |Δd_k,a|·(u − |s_k − c|)⁺ <= B_a·Ts²`
+//!   (the per-axis box shared as the local geometry allows: an axis
+//!   along the normal, where the tangent has no component, gets nearly
+//!   all of `A_a` for the turn). As a function of `c` that sum is piecewise
 //!   linear with its peaks at vertices, so checking it with `c` at every
 //!   point is enough: the ceiling is the largest `v` meeting it at the point
 //!   (vertices taken in order of distance, `u` solved on the last linear
-//!   piece). It is exact at a single sharp corner (`v·|Δd_a| <= (1 − ρ)·A_a·Ts`:
-//!   what one tick can turn) and gives `v²κ <= (1 − ρ)·A` on a densely
-//!   sampled curve (the centripetal share). The speed is taken as equal on
-//!   both sides of the stencil (the acceleration within a tick is neglected
-//!   in the weights: a relative `ρ·A·Ts/v`; the property tests check the
+//!   piece). It is exact at a single sharp corner (`v·|Δd_a| <= B_a·Ts`:
+//!   what one tick can turn) and gives `v²κ·|n_a| <= A_a − ρ·min A·|t_a|`
+//!   on a densely sampled curve (normal `n`, tangent `t`). The speed is
+//!   taken as equal on both sides of the stencil (the acceleration within
+//!   a tick is neglected in the weights: a relative `ρ·A·Ts/v`; the property tests check the
 //!   resulting per-axis acceleration);
 //! - the chord-error bound of the interpolation period,
 //!   `v <= (2/Ts)·√(2δ/κ − δ²)` (the chord of one tick on a circle of

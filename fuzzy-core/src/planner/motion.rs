@@ -324,7 +324,7 @@ impl<const N: usize> Motion<N> {
         if self.nodes.is_full() {
             return Err(MotionError::Full);
         }
-        let lim = self.lim;
+        let lim = &self.lim;
         let feed = self.to_tick_speed(p.feed).min(lim.feed_max);
         // Chord error: v·Ts <= 2·sqrt(2δ/κ − δ²).
         let kappa = p.curvature.0.to_bits();
@@ -481,6 +481,25 @@ impl<const N: usize> Motion<N> {
         // taken; the bound at travel U is S·U − W.
         let mut sum = n.turn.map(i64::from);
         let mut weighted = [0i64; 3];
+        // |d_a| of the outgoing segment (Q14, rounded up; 1 if it has no
+        // length): every segment the stencil reaches has
+        // |d_a| <= out_a + S_a (its direction is the outgoing one plus the
+        // direction changes in between).
+        let out = match self.nodes.get(i + 1) {
+            Some(m) if m.s > n.s => {
+                let (p, q) = (n.pos.to_bits(), m.pos.to_bits());
+                let len = (m.s - n.s) as u64;
+                // In 32 bits (the hardware divide): the length scaled to at
+                // most 2^17, each component rounded up, the length down.
+                let k = (64 - len.leading_zeros()).saturating_sub(17);
+                let l32 = (len >> k) as u32;
+                zip3(p, q, |p, q| {
+                    let c = (q.saturating_sub(p).unsigned_abs() >> k).min(1 << 17) as u32 + 1;
+                    i64::from((c << 14).checked_div(l32).unwrap_or(1 << 14)) + 1
+                })
+            }
+            _ => [1 << 14; 3],
+        };
         let (mut left, mut right) = (i.checked_sub(1), i + 1);
         loop {
             // The nearer of the next vertices on either side, within reach.
@@ -501,11 +520,17 @@ impl<const N: usize> Motion<N> {
             };
             // At travel U = d the next vertex starts to count: stop if the
             // bound is already broken there (the solution lies before it).
-            let broken = sum
-                .iter()
-                .zip(weighted.iter())
-                .zip(lim.corner_accel.iter())
-                .any(|((&s, &w), &c)| ((s as i128 * d as i128) >> 14) - w as i128 > c as i128);
+            // (The share is computed only where the demand exceeds its
+            // least value, the fixed `(1 − ρ)·A_a`.)
+            let broken = zip3(sum, weighted, |s, w| {
+                ((s as i128 * d as i128) >> 14) - w as i128
+            })
+            .iter()
+            .zip(lim.corner_accel.iter().zip(lim.axis_accel.iter()))
+            .zip(sum.iter().zip(out.iter()))
+            .any(|((&need, (&c, &a)), (&s, &o))| {
+                need > c as i128 && need > axis_share(lim.accel, a, c, o, s) as i128
+            });
             if broken {
                 break;
             }
@@ -526,7 +551,8 @@ impl<const N: usize> Motion<N> {
         }
         // U = (B + W) / S on the last piece, the least over the axes.
         let mut u = i64::MAX;
-        for ((&s, &w), &c) in sum.iter().zip(weighted.iter()).zip(lim.corner_accel.iter()) {
+        let share = corner_share(lim, out, sum);
+        for ((&s, &w), &c) in sum.iter().zip(weighted.iter()).zip(share.iter()) {
             if s > 0 {
                 u = u.min(div(c.saturating_add(w), s << 18)); // Σ Q14 → Q32
             }
@@ -998,6 +1024,32 @@ fn step_phases(a: i64, jerk: i64, acc: i64) -> [(i64, i64); 2] {
     } else {
         [(t, jerk), (ONE - t, 0)]
     }
+}
+
+/// What each axis leaves for direction changes, `A_a − ρ·min A·τ_a`, with
+/// `τ_a = min(1, out_a + sum_a)` (both Q14) bounding `|d_a|` of every
+/// segment in the stencil: the tangential part of the second difference
+/// on axis `a` is at most the executor's `ρ·min A` (near vertices) times
+/// `|d_a|`. At least the fixed share `(1 − ρ)·A_a`.
+fn corner_share(lim: &Limits, out: [i64; 3], sum: [i64; 3]) -> [i64; 3] {
+    let [o0, o1, o2] = out;
+    let [s0, s1, s2] = sum;
+    let [a0, a1, a2] = lim.axis_accel;
+    let [c0, c1, c2] = lim.corner_accel;
+    [
+        axis_share(lim.accel, a0, c0, o0, s0),
+        axis_share(lim.accel, a1, c1, o1, s1),
+        axis_share(lim.accel, a2, c2, o2, s2),
+    ]
+}
+
+/// One axis of [`corner_share`]: `max(A_a − ρ·min A·τ_a, (1 − ρ)·A_a)`.
+#[inline]
+fn axis_share(tangential: i64, axis: i64, fixed: i64, out: i64, sum: i64) -> i64 {
+    // `tangential` < 2^46 (at most 10^6 mm/s² over a 100 ms tick) and
+    // τ <= 2^14 (Q14): the product fits 64 bits.
+    let tau = out.saturating_add(sum).min(1 << 14);
+    (axis - ((tangential * tau) >> 14)).max(fixed)
 }
 
 /// The speed allowed by per-axis limits along direction `d` (Q30 unit).
