@@ -45,6 +45,11 @@ impl FaultRecord {
             .then_some(AlarmCode::Fault { pc: self.pc })
     }
 
+    /// The record as the three words kept in RAM.
+    pub const fn words(&self) -> [u32; 3] {
+        [self.magic, self.pc, self.check]
+    }
+
     /// From raw words (RAM as found after a reset).
     pub const fn from_words(w: [u32; 3]) -> Self {
         FaultRecord {

@@ -86,9 +86,9 @@ static mut FAULT: core::mem::MaybeUninit<[u32; 3]> = core::mem::MaybeUninit::uni
 #[cortex_m_rt::exception]
 unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
     board::fault_outputs_off();
-    let r = controller::fault::FaultRecord::at(frame.pc());
+    let words = controller::fault::FaultRecord::at(frame.pc()).words();
     // SAFETY: the fault handler is the only writer; nothing else runs.
-    unsafe { core::ptr::write_volatile(core::ptr::addr_of_mut!(FAULT).cast(), r) };
+    unsafe { core::ptr::write_volatile(core::ptr::addr_of_mut!(FAULT).cast::<[u32; 3]>(), words) };
     fail()
 }
 

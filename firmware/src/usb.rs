@@ -117,17 +117,13 @@ impl UsbPort {
 
     /// The next received byte, if any.
     pub fn read(&mut self) -> Option<u8> {
-        if self.at == self.len {
+        if self.at >= self.len {
             self.at = 0;
             self.len = self.serial.read(&mut self.buf).unwrap_or(0);
         }
-        let b = *self.buf.get(self.at)?;
-        if self.at < self.len {
-            self.at += 1;
-            Some(b)
-        } else {
-            None
-        }
+        let b = *self.buf.get(self.at..self.len)?.first()?;
+        self.at += 1;
+        Some(b)
     }
 
     /// Queue `byte` for the host; `false` if the class's buffer is full

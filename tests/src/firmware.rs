@@ -233,6 +233,26 @@ pub struct Firmware {
     pub log: PathBuf,
 }
 
+/// QEMU's netduinoplus2 running `elf` with `-icount shift=0`, USART1 on the
+/// Unix socket `sock` (the guest starts when the first client connects),
+/// the semihosting (defmt) output to `log`.
+pub fn spawn_qemu(elf: &Path, sock: &Path, log: std::fs::File) -> Child {
+    Command::new("qemu-system-arm")
+        .args(["-cpu", "cortex-m4", "-machine", "netduinoplus2"])
+        .args(["-display", "none", "-monitor", "none"])
+        .args(["-semihosting-config", "enable=on,target=native"])
+        .args(["-icount", "shift=0"])
+        .arg("-serial")
+        .arg(format!("unix:{},server=on,wait=on", sock.display()))
+        .arg("-kernel")
+        .arg(elf)
+        .stdin(Stdio::null())
+        .stdout(log)
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("start qemu-system-arm")
+}
+
 impl Firmware {
     /// Start the firmware in QEMU (`-icount shift=0`, so SysTick figures
     /// are instruction counts) and wait for its hello. `name` names the
@@ -252,20 +272,7 @@ impl Firmware {
         let _ = std::fs::remove_file(&sock);
         let log = dir.join(format!("{name}.defmt"));
         let log_file = std::fs::File::create(&log).expect("log file");
-        let child = Command::new("qemu-system-arm")
-            .args(["-cpu", "cortex-m4", "-machine", "netduinoplus2"])
-            .args(["-display", "none", "-monitor", "none"])
-            .args(["-semihosting-config", "enable=on,target=native"])
-            .args(["-icount", "shift=0"])
-            .arg("-serial")
-            .arg(format!("unix:{},server=on,wait=on", sock.display()))
-            .arg("-kernel")
-            .arg(&elf)
-            .stdin(Stdio::null())
-            .stdout(log_file)
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("start qemu-system-arm");
+        let child = spawn_qemu(&elf, &sock, log_file);
         let deadline = Instant::now() + Duration::from_secs(10);
         let stream = loop {
             match std::os::unix::net::UnixStream::connect(&sock) {

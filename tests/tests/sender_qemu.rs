@@ -43,7 +43,9 @@ use std::time::{Duration, Instant};
 use controller::settings::MOTION_CONFIG;
 use fuzzy_core::scheduler::PathPoint;
 use link::{DeviceMsg, MachineCmd, Motion, PlanEvent, Status};
-use system_tests::firmware::{firmware_elf, on_grid, qemu_available, repo_root, PlanLog};
+use system_tests::firmware::{
+    firmware_elf, on_grid, qemu_available, repo_root, spawn_qemu, PlanLog,
+};
 use system_tests::planned;
 
 /// One QEMU test at a time: each QEMU takes a core, and `-icount` slows
@@ -97,20 +99,7 @@ impl Qemu {
             std::env::temp_dir().join(format!("fuzzy-send-{}-{name}.sock", std::process::id()));
         let _ = std::fs::remove_file(&sock);
         let log = std::fs::File::create(dir.join(format!("sender-{name}.defmt"))).expect("log");
-        let child = Command::new("qemu-system-arm")
-            .args(["-cpu", "cortex-m4", "-machine", "netduinoplus2"])
-            .args(["-display", "none", "-monitor", "none"])
-            .args(["-semihosting-config", "enable=on,target=native"])
-            .args(["-icount", "shift=0"])
-            .arg("-serial")
-            .arg(format!("unix:{},server=on,wait=on", sock.display()))
-            .arg("-kernel")
-            .arg(&elf)
-            .stdin(Stdio::null())
-            .stdout(log)
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("start qemu-system-arm");
+        let child = spawn_qemu(&elf, &sock, log);
         let deadline = Instant::now() + Duration::from_secs(10);
         while !sock.exists() {
             assert!(

@@ -118,13 +118,16 @@ pub const COMPENSATION_SYSTEM: SystemDef<'static, 1> = SystemDef {
 /// centroid samples).
 pub type NagataController = Controller<'static, 1, 6, 6, 1>;
 
-/// The feed reasoner, built at compile time.
+/// The feed reasoner, built at compile time (a static's initializer is
+/// evaluated by the compiler: an invalid table fails the build, it cannot
+/// panic at run time).
 pub static FEED_CONTROLLER: NagataController = match Controller::new(&FEED_SYSTEM) {
     Ok(c) => c,
     Err(_) => panic!("nagata::FEED_SYSTEM is invalid"),
 };
 
-/// The compensation reasoner, built at compile time.
+/// The compensation reasoner, built at compile time (as the feed
+/// reasoner).
 pub static COMPENSATION_CONTROLLER: NagataController = match Controller::new(&COMPENSATION_SYSTEM) {
     Ok(c) => c,
     Err(_) => panic!("nagata::COMPENSATION_SYSTEM is invalid"),
