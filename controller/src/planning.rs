@@ -25,7 +25,7 @@
 use fixed::types::I32F32;
 use fuzzy_core::planner::{MotionError, MotionPoint, MotionState, Tick};
 use fuzzy_core::scheduler::ScheduledPoint;
-use fuzzy_core::units::{FeedMmPerMin, Point3Mm};
+use fuzzy_core::units::{FeedMmPerMin, Point3Mm, SpeedMmPerTick};
 
 use crate::checksum::Checksum;
 use crate::controls::Controls;
@@ -69,7 +69,7 @@ impl Setpoint {
             pos: t.pos,
             feed_q12: bits.clamp(0, u32::MAX as i64) as u32,
             state: t.state,
-            moving: t.speed > 0,
+            moving: t.speed > SpeedMmPerTick::ZERO,
         }
     }
 }

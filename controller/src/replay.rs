@@ -16,7 +16,7 @@
 
 use fuzzy_core::planner::{MotionError, MotionState, Tick};
 use fuzzy_core::scheduler::{ScheduledPoint, SchedulerConfig, SchedulerError};
-use fuzzy_core::units::Point3Mm;
+use fuzzy_core::units::{Point3Mm, SpeedMmPerTick};
 
 use crate::checksum::Checksum;
 use crate::command::Cmd;
@@ -284,7 +284,7 @@ impl<C: Clock, F: FnMut(&Plan, &Tick)> Run<'_, '_, C, F> {
         let t = self.planning.generate();
         self.r.gen.add(self.clock.since(t0));
         self.sum.add_pos(t.pos);
-        if t.speed > 0 {
+        if t.speed > SpeedMmPerTick::ZERO {
             self.r.moving_ticks += 1;
         }
         if self.last == MotionState::Moving && t.state == MotionState::Starved {

@@ -68,6 +68,6 @@ mod ring;
 pub mod scheduler;
 pub mod units;
 
-// The planner (`planner/q.rs`, `planner/motion.rs`) names the soft float
+// The planner (`planner/q.rs`, `planner/segment.rs`) names the soft float
 // `crate::softfloat` until its helpers join `numerics`.
 pub(crate) use numerics::softfloat;

@@ -7,6 +7,9 @@
 //!   their full resolution, so differences of neighbouring points are exact;
 //! - curvature: [`CurvaturePerMm`], [`I32F32`] 1/mm (saturates at 2^31 /mm);
 //! - feed: [`FeedMmPerMin`], [`I32F32`] mm/min;
+//! - the planner's tangential speed and acceleration per interpolation tick:
+//!   [`SpeedMmPerTick`], [`AccelMmPerTick2`], [`I32F32`] mm/tick and
+//!   mm/tick² (integrating a tick needs no multiplication by the period);
 //! - fuzzy inputs, outputs and membership parameters: [`Fx`] (Q16.16).
 
 use fixed::types::{I16F16, I32F32};
@@ -139,6 +142,54 @@ impl FeedMmPerMin {
     }
 }
 
+/// Tangential speed in mm per interpolation tick, `I32F32`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct SpeedMmPerTick(pub I32F32);
+
+impl SpeedMmPerTick {
+    /// Standstill.
+    pub const ZERO: SpeedMmPerTick = SpeedMmPerTick(I32F32::ZERO);
+
+    /// From raw I32F32 bits (units of 2^-32 mm/tick).
+    pub const fn from_bits(bits: i64) -> Self {
+        SpeedMmPerTick(I32F32::from_bits(bits))
+    }
+
+    /// Raw I32F32 bits.
+    pub const fn to_bits(self) -> i64 {
+        self.0.to_bits()
+    }
+
+    /// The value in mm/s for a tick of `tick_s` seconds.
+    pub fn to_mm_per_s_f64(self, tick_s: f64) -> f64 {
+        self.0.to_num::<f64>() / tick_s
+    }
+}
+
+/// Tangential acceleration in mm per interpolation tick², `I32F32`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct AccelMmPerTick2(pub I32F32);
+
+impl AccelMmPerTick2 {
+    /// None.
+    pub const ZERO: AccelMmPerTick2 = AccelMmPerTick2(I32F32::ZERO);
+
+    /// From raw I32F32 bits (units of 2^-32 mm/tick²).
+    pub const fn from_bits(bits: i64) -> Self {
+        AccelMmPerTick2(I32F32::from_bits(bits))
+    }
+
+    /// Raw I32F32 bits.
+    pub const fn to_bits(self) -> i64 {
+        self.0.to_bits()
+    }
+
+    /// The value in mm/s² for a tick of `tick_s` seconds.
+    pub fn to_mm_per_s2_f64(self, tick_s: f64) -> f64 {
+        self.0.to_num::<f64>() / (tick_s * tick_s)
+    }
+}
+
 #[cfg(feature = "defmt")]
 impl defmt::Format for Point3Mm {
     fn format(&self, f: defmt::Formatter) {
@@ -156,6 +207,20 @@ impl defmt::Format for Point3Mm {
 impl defmt::Format for CurvaturePerMm {
     fn format(&self, f: defmt::Formatter) {
         defmt::write!(f, "{=f32} /mm", self.0.to_num::<f32>())
+    }
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for SpeedMmPerTick {
+    fn format(&self, f: defmt::Formatter) {
+        defmt::write!(f, "{=f32} mm/tick", self.0.to_num::<f32>())
+    }
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for AccelMmPerTick2 {
+    fn format(&self, f: defmt::Formatter) {
+        defmt::write!(f, "{=f32} mm/tick²", self.0.to_num::<f32>())
     }
 }
 
@@ -234,6 +299,17 @@ mod tests {
                 proptest::prop_assert_eq!(got, want);
             }
         }
+    }
+
+    #[test]
+    fn per_tick_units_convert_to_seconds() {
+        // 1 µm per 1 ms tick is 1 mm/s; 1 nm per tick² at 1 ms is 1 mm/s².
+        let v = SpeedMmPerTick(I32F32::from_num(0.001));
+        assert!((v.to_mm_per_s_f64(1e-3) - 1.0).abs() < 1e-6);
+        let a = AccelMmPerTick2(I32F32::from_num(1e-6));
+        assert!((a.to_mm_per_s2_f64(1e-3) - 1.0).abs() < 1e-3);
+        assert_eq!(SpeedMmPerTick::from_bits(7).to_bits(), 7);
+        assert_eq!(AccelMmPerTick2::from_bits(-7).to_bits(), -7);
     }
 
     #[test]

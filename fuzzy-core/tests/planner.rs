@@ -106,7 +106,7 @@ fn record<const N: usize>(m: &mut Motion<N>, ts: f64, out: &mut Vec<T>) -> Motio
         pos: t.pos.to_f64(),
         s: t.s_mm.to_num(),
         v: m.speed_mm_per_min(t.speed).to_f64() / 60.0,
-        a: t.accel as f64 / 4294967296.0 / (ts * ts),
+        a: t.accel.to_mm_per_s2_f64(ts),
         state: t.state,
         point: t.point,
     });

@@ -237,7 +237,7 @@ pub fn peaks(ticks: &[Tick], config: &MotionConfig, accel_mm_s2: f64) -> Peaks {
         }
     }
     for w in ticks.windows(2) {
-        let dv = (w[1].speed - w[0].speed) as f64 / q / (ts * ts);
+        let dv = (w[1].speed.to_bits() - w[0].speed.to_bits()) as f64 / q / (ts * ts);
         p.tang_acc = p.tang_acc.max(dv.abs() / accel_mm_s2);
     }
     // Creep speed J·Ts²/2 in mm/tick, raw Q32.
@@ -248,9 +248,10 @@ pub fn peaks(ticks: &[Tick], config: &MotionConfig, accel_mm_s2: f64) -> Peaks {
         if s[0] <= s[1] && s[1] <= s[2] && s[2] <= s[3] {
             let d3 = s[3] - 3.0 * s[2] + 3.0 * s[1] - s[0];
             let j = d3.abs() / (ts * ts * ts) / config.jerk_max_mm_s3 as f64;
-            let step_on = w[1..]
-                .windows(2)
-                .any(|v| v[1].speed == 0 && v[0].speed > 0 && v[0].speed as f64 <= creep);
+            let step_on = w[1..].windows(2).any(|v| {
+                let (v0, v1) = (v[0].speed.to_bits(), v[1].speed.to_bits());
+                v1 == 0 && v0 > 0 && v0 as f64 <= creep
+            });
             if step_on {
                 p.stop_step_jerk = p.stop_step_jerk.max(j);
             } else if j > p.jerk {
@@ -260,7 +261,7 @@ pub fn peaks(ticks: &[Tick], config: &MotionConfig, accel_mm_s2: f64) -> Peaks {
         }
     }
     for t in ticks {
-        p.feed_max = p.feed_max.max(t.speed as f64 / q / ts * 60.0);
+        p.feed_max = p.feed_max.max(t.speed.to_mm_per_s_f64(ts) * 60.0);
     }
     p
 }

@@ -34,7 +34,7 @@ use controller::replay::{self, NoClock, Replay};
 use controller::settings::{Plan, Sched, MOTION_CONFIG, PLANNER_POINTS};
 use fuzzy_core::lin2021::COMPACT;
 use fuzzy_core::scheduler::{PathPoint, SchedulerConfig};
-use fuzzy_core::units::{FeedMmPerMin, Point3Mm};
+use fuzzy_core::units::{FeedMmPerMin, Point3Mm, SpeedMmPerTick};
 use link::client::Hello;
 use link::{ErrorCode, HostMsg, Motion, Status};
 use system_tests::firmware::{on_grid, qemu_available, read_points, repo_root, Firmware};
@@ -325,7 +325,9 @@ fn underrun_stops_within_the_acceleration_and_resumes_without_a_jump() {
     let stopped = rep
         .ticks
         .iter()
-        .position(|t| t.state == fuzzy_core::planner::MotionState::Starved && t.speed == 0)
+        .position(|t| {
+            t.state == fuzzy_core::planner::MotionState::Starved && t.speed == SpeedMmPerTick::ZERO
+        })
         .expect("a starved stop in the replay");
     assert_eq!(rep.ticks[stopped].pos.to_bits(), last_known);
     println!(
@@ -384,7 +386,8 @@ fn feed_hold_decelerates_and_resume_continues() {
     assert!(rep
         .ticks
         .iter()
-        .any(|t| t.state == fuzzy_core::planner::MotionState::Holding && t.speed == 0));
+        .any(|t| t.state == fuzzy_core::planner::MotionState::Holding
+            && t.speed == SpeedMmPerTick::ZERO));
     println!(
         "hold: stopped in {ticks} ticks at x = {} mm, resumed to the end",
         pos(&held)[0]
@@ -1166,7 +1169,7 @@ fn a_link_e_stop_stops_the_motion_until_unlocked() {
         })
         .map(|w| w[1])
         .expect("the stop lies on the path");
-    let v = at_stop.speed as f64 / 4294967296.0 * 60_000.0;
+    let v = at_stop.speed.to_mm_per_s_f64(1e-3) * 60.0;
     assert!(v > 2990.0, "{v} mm/min at the stop");
     let p = planned::peaks(&rep.ticks[..reset_at.0 as usize], &config, rep.accel_mm_s2);
     planned::check_limits("estop", &p, &config);
@@ -1335,7 +1338,7 @@ fn spindle_commands_are_reported_at_their_path_index() {
     let (rep, _) = verify("spindle", &mut fw, &[sent_a, sent_b], 0);
     let t3 = applied[0].3 as usize;
     assert_eq!(rep.ticks[t3 - 1].pos.to_bits(), end_of(&a));
-    assert_eq!(rep.ticks[t3 - 1].speed, 0);
+    assert_eq!(rep.ticks[t3 - 1].speed, SpeedMmPerTick::ZERO);
     let t5 = applied[1].3 as usize;
     assert_eq!(rep.ticks[t5 - 1].pos.to_bits(), goal);
     println!(

@@ -12,8 +12,33 @@
 //!
 //! Units: per-tick, raw Q32 (`i64`, 32 fractional bits): mm, mm/tick,
 //! mm/tick², mm/tick³, so integrating a tick needs no multiplication by the
-//! period. Buffered speeds are stored in 32 bits as Q28 (below 16 mm/tick),
-//! rounded down (they are upper bounds).
+//! period; in the public [`Tick`] typed as [`SpeedMmPerTick`](crate::units::SpeedMmPerTick) and
+//! [`AccelMmPerTick2`](crate::units::AccelMmPerTick2) ([`Motion::speed_mm_per_min`] converts with the
+//! configured period). Buffered speeds are stored in 32 bits as Q28 (below
+//! 16 mm/tick), rounded down (they are upper bounds).
+//!
+//! # Stages
+//! One stage per file, each handing one type to the next, as Grbl's
+//! `planner.c` hands its blocks to `stepper.c`:
+//!
+//! | file | stage | takes | hands on |
+//! |---|---|---|---|
+//! | `lookahead.rs` | the point buffer, ceilings, caps, backward envelope | [`MotionPoint`] | the finalized nodes (`Lookahead`, read only) |
+//! | `executor.rs` | the per-tick jerk-limited profile, its committed stop (`brake.rs`), the position | `&Lookahead` | [`Tick`] |
+//! | `controller/src/steps` (firmware side) | exact step times per tick | the tick's setpoint | step pulses |
+//!
+//! Shared by the stages: `segment.rs` (one move's unit direction and
+//! length: the lookahead measures each move when it is pushed and sums the
+//! lengths into the arc lengths the executor follows; the executor measures
+//! the segment it enters again with the same function, from the same two
+//! node positions, rather than the buffer keeping 12 more bytes per node),
+//! `config.rs` ([`MotionConfig`] compiled
+//! once into per-tick limits), `q.rs` (Q32 arithmetic). `motion.rs` holds
+//! [`Motion`], the one entry point over both stages. The configuration is
+//! read through `&`; the only `&mut` per tick is the executor's state (arc
+//! length, speed, acceleration, segment) and the buffer dropping the nodes
+//! the executor has left behind. Each stage file states its invariants at
+//! its top.
 //!
 //! # Ceilings (per point) and caps (per segment)
 //! At each point the speed may not exceed:
@@ -127,8 +152,13 @@
 
 mod brake;
 mod config;
+mod executor;
+mod lookahead;
 mod motion;
 mod q;
+mod segment;
 
 pub use config::{ConfigError, MotionConfig};
-pub use motion::{Motion, MotionError, MotionPoint, MotionState, PlannedPoint, Tick};
+pub use executor::{MotionState, Tick};
+pub use lookahead::{MotionError, MotionPoint, PlannedPoint};
+pub use motion::Motion;

@@ -298,7 +298,6 @@ fn stream<const N: usize>(
     let ts_s = cfg.tick_us as f64 * 1e-6;
     let mut m: Box<Motion<N>> =
         Box::new(Motion::new(cfg).map_err(|e| anyhow::anyhow!("planner: {e}"))?);
-    let q32 = 4_294_967_296.0;
     let mut ticks: Vec<TickRecord> = Vec::new();
     let mut rec = Recorder { points: Vec::new() };
     let tick = |m: &mut Motion<N>, ticks: &mut Vec<TickRecord>, rec: &mut Recorder| {
@@ -308,7 +307,7 @@ fn stream<const N: usize>(
             pos: t.pos.to_f64(),
             s_mm: t.s_mm.to_num(),
             speed_mm_per_s: m.speed_mm_per_min(t.speed).to_f64() / 60.0,
-            accel_mm_per_s2: t.accel as f64 / q32 / (ts_s * ts_s),
+            accel_mm_per_s2: t.accel.to_mm_per_s2_f64(ts_s),
             point: t.point,
             state: t.state,
         });

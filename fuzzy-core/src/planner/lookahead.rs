@@ -1,0 +1,680 @@
+//! The lookahead stage: the buffer of points, their speed ceilings and the
+//! segments' caps, and the backward envelope over them (module docs of
+//! [`super`]: "Ceilings", "Envelope").
+//!
+//! Input: [`MotionPoint`]s (position, scheduled feed, curvature), one
+//! [`Segment`] measured per move. Output, read by the executor: for every
+//! finalized node its arc length, envelope and whether the envelope binds
+//! there, and [`Lookahead::env_at`] between nodes.
+//!
+//! Invariants:
+//! - the nodes `0..finalized` have final ceilings (their corner window is
+//!   complete) and an envelope from which every later ceiling, and a stop at
+//!   the end of what is finalized, is reachable with deceleration `D_env`;
+//! - stored speeds are upper bounds (rounded down to Q28);
+//! - this stage only adds nodes at the back and recomputes envelopes; the
+//!   executor's progress reaches it only through [`Lookahead::drop_front_behind`].
+//!
+//! The counterpart of Grbl's `planner.c` (its block buffer and reverse
+//! pass); the corner model is this planner's own (module docs of [`super`]).
+
+use heapless::Deque;
+
+use super::config::Limits;
+use super::q::{div, mul, reach, sqrt};
+use super::segment::{zip3, Segment};
+use crate::scheduler::ScheduledPoint;
+use crate::units::{CurvaturePerMm, FeedMmPerMin, Point3Mm};
+
+/// A point of the path with its scheduled feed.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MotionPoint {
+    /// Position, mm.
+    pub pos: Point3Mm,
+    /// Feed on the move ending at this point (the scheduler's), mm/min.
+    pub feed: FeedMmPerMin,
+    /// Path curvature at the point (for the chord-error bound), 1/mm.
+    pub curvature: CurvaturePerMm,
+}
+
+impl From<&ScheduledPoint> for MotionPoint {
+    fn from(p: &ScheduledPoint) -> Self {
+        MotionPoint {
+            pos: p.point.pos,
+            feed: p.feed,
+            curvature: p.curvature,
+        }
+    }
+}
+
+/// Why a point was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum MotionError {
+    /// The buffer is full: push again after some ticks.
+    Full,
+    /// The path was ended; start a new one with [`Motion::restart`](super::Motion::restart).
+    PathEnded,
+    /// Coordinates or feed out of range.
+    BadPoint,
+    /// [`Motion::restart`](super::Motion::restart) while the tool is moving.
+    Moving,
+}
+
+impl core::fmt::Display for MotionError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            MotionError::Full => "motion buffer full",
+            MotionError::PathEnded => "path already ended",
+            MotionError::BadPoint => "point out of range",
+            MotionError::Moving => "cannot restart while moving",
+        })
+    }
+}
+
+/// What the planner derived for a buffered point (for reports and tests).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PlannedPoint {
+    /// Position, mm.
+    pub pos: Point3Mm,
+    /// Arc length from the path start, mm.
+    pub s_mm: fixed::types::I32F32,
+    /// Length of the outgoing segment, mm.
+    pub len_mm: fixed::types::I32F32,
+    /// Speed ceiling at the point, mm/min.
+    pub ceiling: FeedMmPerMin,
+    /// Speed cap on the outgoing segment, mm/min.
+    pub cap: FeedMmPerMin,
+    /// Envelope, mm/min.
+    pub envelope: FeedMmPerMin,
+    /// Index in the path.
+    pub index: u32,
+}
+
+/// A buffered point with what the planner derived for it (56 bytes: the
+/// buffer is most of the planner's RAM).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(super) struct Node {
+    pub(super) pos: Point3Mm,
+    /// Arc length from the path start, mm (Q32).
+    pub(super) s: i64,
+    /// Change of direction at this node per axis, `|d_out − d_in|` (Q14,
+    /// rounded up).
+    turn: [u16; 3],
+    /// The envelope here is set by the node's own ceiling or an adjacent
+    /// cap, not by the reach from the next node (module docs, "Executor").
+    pub(super) binding: bool,
+    /// Programmed feed of the move ending here (before the override).
+    feed: u32,
+    /// Physical speed ceiling at the node: chord error, axis speeds of the
+    /// adjacent moves and, once final, the direction changes near it.
+    ceil: u32,
+    /// Physical speed cap of the outgoing segment.
+    cap: u32,
+    /// Envelope `T` (module docs).
+    pub(super) env: u32,
+}
+
+/// Stored speeds (`feed`, `ceil`, `cap`, `env`): Q28 mm/tick in 32 bits,
+/// rounded down (they are upper bounds).
+fn st(v: i64) -> u32 {
+    (v.max(0) >> 4).min(u32::MAX as i64) as u32
+}
+
+/// A stored speed in Q32.
+pub(super) fn ld(u: u32) -> i64 {
+    (u as i64) << 4
+}
+
+/// The lookahead buffer of up to `N` points with their ceilings, caps and
+/// envelope.
+#[derive(Clone, Debug)]
+pub(super) struct Lookahead<const N: usize> {
+    lim: Limits,
+    nodes: Deque<Node, N>,
+    /// Nodes (from the front) whose ceilings are final.
+    finalized: usize,
+    /// The path was ended: the newest node is the final stop.
+    ended: bool,
+    /// Direction of the newest segment (Q30), if any.
+    last_dir: Option<[i32; 3]>,
+    /// Feed override, Q16 (1.0 = 100 %).
+    override_q16: i64,
+    /// Path index of `nodes[0]`.
+    front_index: u32,
+}
+
+impl<const N: usize> Lookahead<N> {
+    /// An empty buffer for the compiled limits.
+    pub(super) fn new(lim: Limits) -> Self {
+        Lookahead {
+            lim,
+            nodes: Deque::new(),
+            finalized: 0,
+            ended: false,
+            last_dir: None,
+            override_q16: 1 << 16,
+            front_index: 0,
+        }
+    }
+
+    /// The compiled limits (configuration, fixed for the planner's life).
+    #[inline]
+    pub(super) fn lim(&self) -> &Limits {
+        &self.lim
+    }
+
+    /// Node `i` (0 = the oldest buffered).
+    #[inline]
+    pub(super) fn node(&self, i: usize) -> Option<&Node> {
+        self.nodes.get(i)
+    }
+
+    /// Buffered nodes.
+    #[inline]
+    pub(super) fn len(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Nodes (from the front) whose ceilings and envelope are final.
+    #[inline]
+    pub(super) fn finalized(&self) -> usize {
+        self.finalized
+    }
+
+    /// Whether the path was ended.
+    #[inline]
+    pub(super) fn ended(&self) -> bool {
+        self.ended
+    }
+
+    /// Path index of node 0.
+    #[inline]
+    pub(super) fn front_index(&self) -> u32 {
+        self.front_index
+    }
+
+    /// Points that can still be pushed.
+    pub(super) fn free(&self) -> usize {
+        N - self.nodes.len()
+    }
+
+    /// The finalized points still buffered, oldest first, with their
+    /// effective ceilings and caps (override applied).
+    pub(super) fn planned(&self) -> impl Iterator<Item = PlannedPoint> + '_ {
+        (0..self.finalized).filter_map(move |i| {
+            let n = self.nodes.get(i)?;
+            let len = self.nodes.get(i + 1).map_or(0, |m| m.s - n.s);
+            Some(PlannedPoint {
+                pos: n.pos,
+                s_mm: fixed::types::I32F32::from_bits(n.s),
+                len_mm: fixed::types::I32F32::from_bits(len),
+                ceiling: self.feed_of(self.ceil_eff(i)),
+                cap: self.feed_of(if i + 1 < self.finalized {
+                    self.cap_eff(i)
+                } else {
+                    0
+                }),
+                envelope: self.feed_of(ld(n.env)),
+                index: self.front_index.wrapping_add(i as u32),
+            })
+        })
+    }
+
+    /// A speed in mm/tick (Q32) in mm/min.
+    pub(super) fn feed_of(&self, speed: i64) -> FeedMmPerMin {
+        let per_min = (speed as i128 * self.lim.tick_to_feed_q16 as i128) >> 16;
+        FeedMmPerMin(fixed::types::I32F32::from_bits(
+            per_min.clamp(0, i64::MAX as i128) as i64,
+        ))
+    }
+
+    /// Drop what is buffered and start a new path; with `here`, its first
+    /// point (index 0) is there, at rest.
+    pub(super) fn restart(&mut self, here: Option<Point3Mm>) {
+        self.nodes.clear();
+        self.finalized = 0;
+        self.ended = false;
+        self.last_dir = None;
+        self.front_index = 0;
+        if let Some(pos) = here {
+            let _ = self.nodes.push_back(Node {
+                pos,
+                ceil: st(self.lim.creep),
+                cap: u32::MAX,
+                feed: u32::MAX,
+                ..Node::default()
+            });
+        }
+    }
+
+    /// Set the feed override (Q16) and re-plan the envelope.
+    pub(super) fn set_override_q16(&mut self, q16: i64) {
+        self.override_q16 = q16;
+        if self.finalized > 0 {
+            self.rebuild_envelope();
+        }
+    }
+
+    /// Drop the oldest node when the second one lies more than the corner
+    /// reach behind arc length `x` (and more than two stay finalized);
+    /// whether one was dropped.
+    pub(super) fn drop_front_behind(&mut self, x: i64) -> bool {
+        if self.finalized <= 2 {
+            return false;
+        }
+        let Some(second) = self.nodes.get(1) else {
+            return false;
+        };
+        if second.s >= x.saturating_sub(self.lim.reach) {
+            return false;
+        }
+        let _ = self.nodes.pop_front();
+        self.finalized -= 1;
+        self.front_index = self.front_index.wrapping_add(1);
+        true
+    }
+
+    /// Add the next point (module docs of [`super::motion`]).
+    pub(super) fn push(&mut self, p: MotionPoint) -> Result<(), MotionError> {
+        if self.ended {
+            return Err(MotionError::PathEnded);
+        }
+        if !p.pos.within_limits() || !p.feed.within_limits() || p.curvature.0 < 0 {
+            return Err(MotionError::BadPoint);
+        }
+        if self.nodes.is_full() {
+            return Err(MotionError::Full);
+        }
+        let lim = &self.lim;
+        let feed = self.to_tick_speed(p.feed).min(lim.feed_max);
+        // Chord error: v·Ts <= 2·sqrt(2δ/κ − δ²).
+        let kappa = p.curvature.0.to_bits();
+        let mut own = i64::MAX;
+        if kappa > 0 {
+            let r = div(2 * lim.chord, kappa) - mul(lim.chord, lim.chord);
+            if r > 0 {
+                own = 2 * sqrt(r);
+            }
+        }
+        let mut node = Node {
+            pos: p.pos,
+            feed: st(feed),
+            ceil: st(own),
+            cap: u32::MAX,
+            ..Node::default()
+        };
+        if let Some(last) = self.nodes.back_mut() {
+            let Some(Segment { dir, len }) = Segment::between(last.pos, p.pos) else {
+                // A zero-length move: a node at the same place (the change
+                // of direction is counted at the later one).
+                node.s = last.s;
+                node.ceil = node.ceil.min(last.ceil);
+                last.cap = u32::MAX;
+                last.turn = [0; 3];
+                let _ = self.nodes.push_back(node); // not full (checked)
+                self.finalize(false);
+                return Ok(());
+            };
+            let seg = st(axis_cap(&lim.axis_speed, dir));
+            last.cap = seg;
+            last.ceil = last.ceil.min(seg);
+            node.ceil = node.ceil.min(seg);
+            node.s = last.s.saturating_add(len);
+            if let Some(prev) = self.last_dir {
+                last.turn = zip3(dir, prev, |d, p| {
+                    let t = (d as i64 - p as i64).unsigned_abs(); // Q30
+                    (t.div_ceil(1 << 16)).min(u16::MAX as u64) as u16 // Q14, up
+                });
+            }
+            self.last_dir = Some(dir);
+        }
+        let _ = self.nodes.push_back(node); // not full (checked)
+        self.finalize(false);
+        Ok(())
+    }
+
+    /// The path ends at the last pushed point: plan the final stop there.
+    pub(super) fn end_path(&mut self) {
+        self.ended = true;
+        self.finalize(true);
+    }
+
+    fn to_tick_speed(&self, f: FeedMmPerMin) -> i64 {
+        let v = (f.0.to_bits() as i128 * self.lim.feed_to_tick_q48 as i128) >> 48;
+        v.clamp(0, i64::MAX as i128) as i64
+    }
+
+    /// A programmed feed with the override, within the feed limit.
+    fn fed(&self, feed: u32) -> i64 {
+        ((ld(feed) * self.override_q16) >> 16).min(self.lim.feed_max)
+    }
+
+    /// The effective ceiling at node `i`: physical, and the programmed
+    /// feeds of both adjacent moves.
+    pub(super) fn ceil_eff(&self, i: usize) -> i64 {
+        let Some(n) = self.nodes.get(i) else {
+            return 0;
+        };
+        let mut c = ld(n.ceil);
+        if !self.is_path_start(i) {
+            c = c.min(self.fed(n.feed));
+        }
+        if let Some(m) = self.nodes.get(i + 1) {
+            c = c.min(self.fed(m.feed));
+        }
+        c
+    }
+
+    /// The effective cap of segment `i` (to node `i + 1`).
+    pub(super) fn cap_eff(&self, i: usize) -> i64 {
+        match (self.nodes.get(i), self.nodes.get(i + 1)) {
+            (Some(n), Some(m)) => ld(n.cap).min(self.fed(m.feed)),
+            _ => 0,
+        }
+    }
+
+    /// Whether node `i` is the first point of the path (the tool starts
+    /// there at rest).
+    fn is_path_start(&self, i: usize) -> bool {
+        i == 0 && self.nodes.get(0).is_some_and(|n| n.s == 0)
+    }
+
+    /// Fix the ceilings of the nodes whose corner window is complete, extend
+    /// the envelope over them.
+    fn finalize(&mut self, all: bool) {
+        let reach = self.lim.reach;
+        loop {
+            let i = self.finalized;
+            let len = self.nodes.len();
+            if i >= len {
+                break;
+            }
+            let newest_s = self.nodes.back().map_or(0, |n| n.s);
+            let Some(si) = self.nodes.get(i).map(|n| n.s) else {
+                break;
+            };
+            // The window ahead must hold nodes whose turn is known (all but
+            // the newest).
+            if !all && newest_s <= si.saturating_add(reach) {
+                break;
+            }
+            let last_of_path = all && i + 1 == len;
+            let ceil = if self.is_path_start(i) || last_of_path {
+                self.lim.creep
+            } else {
+                self.nodes
+                    .get(i)
+                    .map_or(0, |n| ld(n.ceil))
+                    .min(self.turn_limit(i))
+                    .max(self.lim.corner_creep)
+            };
+            if let Some(n) = self.nodes.get_mut(i) {
+                n.ceil = st(ceil);
+                if last_of_path {
+                    n.cap = 0;
+                }
+            }
+            if i > 0 {
+                self.set_cap(i - 1);
+            }
+            self.finalized = i + 1;
+            self.extend_envelope(i);
+        }
+    }
+
+    /// The largest speed at node `i` for which the direction changes near it
+    /// keep every axis within its corner share `(1 − ρ)·A_a` (module docs,
+    /// "Ceilings"): with `U` the travel of a tick (the speed) and `δ_k` each
+    /// vertex's distance from node `i`,
+    /// `Σ_k |Δd_k,a|·(U − δ_k)⁺ <= (1 − ρ)·A_a·Ts²`. The left side is
+    /// piecewise linear and increasing in `U`; the vertices are taken in
+    /// order of distance while the bound still holds at the next one, then
+    /// `U` is solved on the last piece.
+    fn turn_limit(&self, i: usize) -> i64 {
+        let Some(n) = self.nodes.get(i) else {
+            return 0;
+        };
+        let lim = &self.lim;
+        // Per axis: S = Σ|Δd| (Q14), W = Σ|Δd|·δ (Q32 mm) over the vertices
+        // taken; the bound at travel U is S·U − W.
+        let mut sum = n.turn.map(i64::from);
+        let mut weighted = [0i64; 3];
+        // |d_a| of the outgoing segment (Q14, rounded up; 1 if it has no
+        // length): every segment the stencil reaches has
+        // |d_a| <= out_a + S_a (its direction is the outgoing one plus the
+        // direction changes in between).
+        let out = match self.nodes.get(i + 1) {
+            Some(m) if m.s > n.s => {
+                let (p, q) = (n.pos.to_bits(), m.pos.to_bits());
+                let len = (m.s - n.s) as u64;
+                // In 32 bits (the hardware divide): the length scaled to at
+                // most 2^17, each component rounded up, the length down.
+                let k = (64 - len.leading_zeros()).saturating_sub(17);
+                let l32 = (len >> k) as u32;
+                zip3(p, q, |p, q| {
+                    let c = (q.saturating_sub(p).unsigned_abs() >> k).min(1 << 17) as u32 + 1;
+                    i64::from((c << 14).checked_div(l32).unwrap_or(1 << 14)) + 1
+                })
+            }
+            _ => [1 << 14; 3],
+        };
+        let (mut left, mut right) = (i.checked_sub(1), i + 1);
+        loop {
+            // The nearer of the next vertices on either side, within reach.
+            let dl = left
+                .and_then(|l| self.nodes.get(l))
+                .map(|m| n.s - m.s)
+                .filter(|&d| d <= lim.reach);
+            let dr = self
+                .nodes
+                .get(right)
+                .map(|m| m.s - n.s)
+                .filter(|&d| d <= lim.reach);
+            let (d, from_left) = match (dl, dr) {
+                (Some(a), Some(b)) if a <= b => (a, true),
+                (Some(a), None) => (a, true),
+                (_, Some(b)) => (b, false),
+                (None, None) => break,
+            };
+            // At travel U = d the next vertex starts to count: stop if the
+            // bound is already broken there (the solution lies before it).
+            // (The share is computed only where the demand exceeds its
+            // least value, the fixed `(1 − ρ)·A_a`.)
+            let broken = zip3(sum, weighted, |s, w| {
+                ((s as i128 * d as i128) >> 14) - w as i128
+            })
+            .iter()
+            .zip(lim.corner_accel.iter().zip(lim.axis_accel.iter()))
+            .zip(sum.iter().zip(out.iter()))
+            .any(|((&need, (&c, &a)), (&s, &o))| {
+                need > c as i128 && need > axis_share(lim.accel, a, c, o, s) as i128
+            });
+            if broken {
+                break;
+            }
+            let m = if from_left {
+                let l = left.unwrap_or(0);
+                left = l.checked_sub(1);
+                self.nodes.get(l)
+            } else {
+                right += 1;
+                self.nodes.get(right - 1)
+            };
+            if let Some(m) = m {
+                for ((s, w), &t) in sum.iter_mut().zip(weighted.iter_mut()).zip(m.turn.iter()) {
+                    *s += i64::from(t);
+                    *w = w.saturating_add(((i64::from(t) as i128 * d as i128) >> 14) as i64);
+                }
+            }
+        }
+        // U = (B + W) / S on the last piece, the least over the axes.
+        let mut u = i64::MAX;
+        let share = corner_share(lim, out, sum);
+        for ((&s, &w), &c) in sum.iter().zip(weighted.iter()).zip(share.iter()) {
+            if s > 0 {
+                u = u.min(div(c.saturating_add(w), s << 18)); // Σ Q14 → Q32
+            }
+        }
+        u
+    }
+
+    /// The cap of the segment from node `i` to `i + 1` (both ceilings final).
+    fn set_cap(&mut self, i: usize) {
+        let (Some(a), Some(b)) = (self.nodes.get(i).copied(), self.nodes.get(i + 1).copied())
+        else {
+            return;
+        };
+        let mut c = ld(a.cap);
+        if b.s - a.s < self.lim.reach {
+            // A short segment lies inside its end points' corner reach.
+            if !self.is_path_start(i) {
+                c = c.min(ld(a.ceil));
+            }
+            if !(self.ended && i + 2 == self.nodes.len()) {
+                c = c.min(ld(b.ceil));
+            }
+        }
+        if let Some(n) = self.nodes.get_mut(i) {
+            n.cap = st(c.max(self.lim.creep));
+        }
+    }
+
+    /// `√(T² + 2·D_env·d)`: the envelope a distance `d` before a point of
+    /// envelope `T`.
+    fn reach_from(&self, t: i64, d: i64) -> i64 {
+        reach(t, self.lim.envelope_decel, d)
+    }
+
+    /// The envelope at node `i` from its own limits and node `i + 1`'s
+    /// (if final): `(T, binding)`.
+    fn envelope_of(&self, i: usize) -> (i64, bool) {
+        let Some(n) = self.nodes.get(i) else {
+            return (0, true);
+        };
+        let mut own = self.ceil_eff(i);
+        if i > 0 {
+            own = own.min(self.cap_eff(i - 1));
+        }
+        if i + 1 < self.finalized {
+            own = own.min(self.cap_eff(i));
+            if let Some(m) = self.nodes.get(i + 1) {
+                let r = self.reach_from(ld(m.env), m.s - n.s);
+                return (own.min(r), own < r);
+            }
+        }
+        (own, true)
+    }
+
+    /// Node `f` was finalized: set its envelope and lower the envelope
+    /// backwards while it changes (typically a few nodes; `N` at most).
+    fn extend_envelope(&mut self, f: usize) {
+        let mut i = f;
+        loop {
+            let (t, binding) = self.envelope_of(i);
+            let Some(n) = self.nodes.get_mut(i) else {
+                break;
+            };
+            let changed = n.env != st(t) || n.binding != binding;
+            n.env = st(t);
+            n.binding = binding;
+            if i == 0 || (!changed && i + 1 < f) {
+                break;
+            }
+            i -= 1;
+        }
+    }
+
+    /// The envelope of every finalized node, from the tail back (after an
+    /// override change).
+    fn rebuild_envelope(&mut self) {
+        let mut i = self.finalized;
+        while i > 0 {
+            i -= 1;
+            let (t, binding) = self.envelope_of(i);
+            if let Some(n) = self.nodes.get_mut(i) {
+                n.env = st(t);
+                n.binding = binding;
+            }
+        }
+    }
+
+    /// The envelope at arc length `x` on segment `k`: under the segment's
+    /// cap, within reach of the next node's envelope, and of a stop at the
+    /// end of what is planned.
+    pub(super) fn env_at(&self, k: usize, x: i64) -> i64 {
+        if k + 1 >= self.finalized {
+            return 0;
+        }
+        let (Some(next), Some(tail)) = (self.nodes.get(k + 1), self.nodes.get(self.finalized - 1))
+        else {
+            return 0;
+        };
+        self.cap_eff(k)
+            .min(self.reach_from(ld(next.env), next.s - x))
+            .min(self.reach_from(self.lim.creep, tail.s - x))
+    }
+
+    /// Segment index (in `nodes`) containing arc length `x`, searching from `from`.
+    pub(super) fn seg_of(&self, from: usize, x: i64) -> usize {
+        let mut k = from;
+        while k + 1 < self.finalized && self.nodes.get(k + 1).is_some_and(|n| n.s <= x) {
+            k += 1;
+        }
+        k
+    }
+}
+
+/// What each axis leaves for direction changes, `A_a − ρ·min A·τ_a`, with
+/// `τ_a = min(1, out_a + sum_a)` (both Q14) bounding `|d_a|` of every
+/// segment in the stencil: the tangential part of the second difference
+/// on axis `a` is at most the executor's `ρ·min A` (near vertices) times
+/// `|d_a|`. At least the fixed share `(1 − ρ)·A_a`.
+fn corner_share(lim: &Limits, out: [i64; 3], sum: [i64; 3]) -> [i64; 3] {
+    let [o0, o1, o2] = out;
+    let [s0, s1, s2] = sum;
+    let [a0, a1, a2] = lim.axis_accel;
+    let [c0, c1, c2] = lim.corner_accel;
+    [
+        axis_share(lim.accel, a0, c0, o0, s0),
+        axis_share(lim.accel, a1, c1, o1, s1),
+        axis_share(lim.accel, a2, c2, o2, s2),
+    ]
+}
+
+/// One axis of [`corner_share`]: `max(A_a − ρ·min A·τ_a, (1 − ρ)·A_a)`.
+#[inline]
+fn axis_share(tangential: i64, axis: i64, fixed: i64, out: i64, sum: i64) -> i64 {
+    // `tangential` < 2^46 (at most 10^6 mm/s² over a 100 ms tick) and
+    // τ <= 2^14 (Q14): the product fits 64 bits.
+    let tau = out.saturating_add(sum).min(1 << 14);
+    (axis - ((tangential * tau) >> 14)).max(fixed)
+}
+
+/// The speed allowed by per-axis limits along direction `d` (Q30 unit).
+fn axis_cap(axis: &[i64; 3], d: [i32; 3]) -> i64 {
+    let mut c = i64::MAX;
+    for (&v, &dk) in axis.iter().zip(d.iter()) {
+        let comp = (dk as i64).unsigned_abs() as i64;
+        if comp > 0 {
+            // v·|d_k| <= V_k  ⇒  v <= V_k / |d_k|, |d_k| in Q30.
+            c = c.min(div(v, comp << 2));
+        }
+    }
+    c
+}
+
+/// Unit vector (Q30) and length (Q32) of a raw I32F32 difference; `None`
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_node_is_56_bytes() {
+        // The buffer is most of the planner's RAM (firmware budget).
+        assert_eq!(core::mem::size_of::<Node>(), 56);
+    }
+}
