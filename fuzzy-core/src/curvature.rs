@@ -58,6 +58,7 @@
 
 use crate::numerics::softfloat::Sf;
 use crate::numerics::wide::sar_i64_low;
+use crate::segment::{magnitude_bits, Scaled};
 use crate::units::{CurvaturePerMm, Point3Mm};
 
 /// Why a curvature could not be computed.
@@ -76,48 +77,6 @@ impl core::fmt::Display for CurvatureError {
                 f.write_str("coincident points: a chord has zero length")
             }
         }
-    }
-}
-
-/// A difference vector scaled by a power of two so that its largest
-/// component is in `[2^29, 2^30)`: `real (raw I32F32 units) = n · 2^shift`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-struct Scaled {
-    n: [i32; 3],
-    shift: i32,
-}
-
-impl Scaled {
-    /// `None` for the zero vector. (Inlined: it runs twice per point, and
-    /// the `Option` then folds away.)
-    #[inline(always)]
-    fn new(d: [i64; 3]) -> Option<Scaled> {
-        let m = magnitude_bits(&d);
-        if m == 0 {
-            return None;
-        }
-        // The top bit lands on bit 29. 32-bit shifts only (`numerics::wide`):
-        // below 2^30 every component already fits an i32.
-        let shift = 64 - m.leading_zeros() as i32 - 30;
-        let n = if shift <= 0 {
-            let l = (-shift) as u32;
-            [(d[0] as i32) << l, (d[1] as i32) << l, (d[2] as i32) << l]
-        } else {
-            let r = shift as u32;
-            [
-                sar_i64_low(d[0], r),
-                sar_i64_low(d[1], r),
-                sar_i64_low(d[2], r),
-            ]
-        };
-        Some(Scaled { n, shift })
-    }
-
-    /// Squared length in raw units².
-    #[inline(always)]
-    fn norm_sq(&self) -> Sf {
-        let q: u64 = self.n.iter().map(|&c| (c as i64 * c as i64) as u64).sum();
-        Sf::from_u64_inline(q).scale2(2 * self.shift)
     }
 }
 
@@ -185,14 +144,6 @@ fn diff_in_range(b: &Point3Mm, a: &Point3Mm) -> [i64; 3] {
         b[1].wrapping_sub(a[1]),
         b[2].wrapping_sub(a[2]),
     ]
-}
-
-/// The components' magnitudes OR-ed together: 0 for the zero vector, and
-/// the same leading zeros as the largest magnitude (all the callers need),
-/// with fewer operations than the maximum.
-#[inline(always)]
-fn magnitude_bits(c: &[i64; 3]) -> u64 {
-    c[0].unsigned_abs() | c[1].unsigned_abs() | c[2].unsigned_abs()
 }
 
 /// `(x >> s)²` for `|x >> s| < 2^31`.

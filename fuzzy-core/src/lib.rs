@@ -22,7 +22,8 @@
 //! | Dat & Phuc 2024 | none: host-sim only (`host-sim/src/experiments/dat_phuc2024`) | |
 //!
 //! Underneath: the generic fuzzy engine ([`fuzzy`]), the velocity planner
-//! ([`planner`]), the integer arithmetic every module shares and its policy
+//! ([`planner`]), the geometry of a straight move shared by the curvature
+//! and the planner (`segment`), the integer arithmetic every module shares and its policy
 //! ([`numerics`]: integer-only on the target, a cost table), typed units
 //! ([`units`]) and, with feature `std`, `f64` references (`reference`).
 //!
@@ -66,8 +67,9 @@ pub mod planner;
 pub mod reference;
 mod ring;
 pub mod scheduler;
+mod segment;
 pub mod units;
 
-// The planner (`planner/q.rs`, `planner/segment.rs`) names the soft float
+// The planner (`planner/q.rs`) names the soft float
 // `crate::softfloat` until its helpers join `numerics`.
 pub(crate) use numerics::softfloat;

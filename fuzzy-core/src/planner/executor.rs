@@ -22,7 +22,7 @@
 use super::brake::{integrate, speed_crossings, Brake};
 use super::lookahead::{ld, Lookahead};
 use super::q::{div, mul, ONE};
-use super::segment::Segment;
+use crate::segment::Segment;
 use crate::units::{AccelMmPerTick2, Point3Mm, SpeedMmPerTick};
 
 /// What the executor is doing.

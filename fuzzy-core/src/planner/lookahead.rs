@@ -22,8 +22,8 @@ use heapless::Deque;
 
 use super::config::Limits;
 use super::q::{div, mul, reach, sqrt};
-use super::segment::{zip3, Segment};
 use crate::scheduler::ScheduledPoint;
+use crate::segment::{zip3, Segment};
 use crate::units::{CurvaturePerMm, FeedMmPerMin, Point3Mm};
 
 /// A point of the path with its scheduled feed.

@@ -27,8 +27,9 @@
 //! | `executor.rs` | the per-tick jerk-limited profile, its committed stop (`brake.rs`), the position | `&Lookahead` | [`Tick`] |
 //! | `controller/src/steps` (firmware side) | exact step times per tick | the tick's setpoint | step pulses |
 //!
-//! Shared by the stages: `segment.rs` (one move's unit direction and
-//! length: the lookahead measures each move when it is pushed and sums the
+//! Shared by the stages: `fuzzy-core/src/segment.rs` (one move's unit
+//! direction and length, on the same scaled difference as the scheduler's
+//! curvature chords: the lookahead measures each move when it is pushed and sums the
 //! lengths into the arc lengths the executor follows; the executor measures
 //! the segment it enters again with the same function, from the same two
 //! node positions, rather than the buffer keeping 12 more bytes per node),
@@ -156,7 +157,6 @@ mod executor;
 mod lookahead;
 mod motion;
 mod q;
-mod segment;
 
 pub use config::{ConfigError, MotionConfig};
 pub use executor::{MotionState, Tick};

@@ -1,15 +1,74 @@
-//! [`Segment`]: the geometry of one straight move between buffered points,
-//! its unit direction and length.
+//! The geometry of a straight move between two points, shared by the
+//! scheduler's curvature and the planner: [`Scaled`], the exact difference
+//! vector scaled by a power of two to 30 significant bits (the curvature's
+//! [`crate::curvature::Chord`] is built on it), and [`Segment`], its unit
+//! direction and length (the planner's lookahead and executor).
 //!
-//! Invariants: `dir` is a unit vector in Q30 (each component within
-//! `±2^30`), `len > 0` in Q32 mm, both a function of the two end points
-//! only; the lookahead's arc lengths are running sums of `len`, and the
-//! executor places the tool at `start + dir·offset` along the same segment,
-//! so both stages see one direction and one length per move.
+//! Invariants: `Scaled` keeps the difference's top bit on bit 29 (exact for
+//! moves up to 0.25 mm, the low bits of the small components dropped
+//! beyond); a `Segment`'s `dir` is a unit vector in Q30 (each component
+//! within `±2^30`) and `len > 0` in Q32 mm, both a function of the two end
+//! points only (the soft float's operations are exact in the power-of-two
+//! scale, so the scaling does not change them); the planner's arc lengths
+//! are running sums of `len`, and its executor places the tool at
+//! `start + dir·offset` along the same segment, so both planner stages see
+//! one direction and one length per move.
 
+use crate::numerics::softfloat::Sf;
+use crate::numerics::wide::sar_i64_low;
 use crate::units::Point3Mm;
 
-/// A straight move from one point to the next.
+/// A difference vector scaled by a power of two so that its largest
+/// component is in `[2^29, 2^30)`: `real (raw I32F32 units) = n · 2^shift`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Scaled {
+    pub(crate) n: [i32; 3],
+    pub(crate) shift: i32,
+}
+
+impl Scaled {
+    /// `None` for the zero vector. (Inlined: it runs twice per point, and
+    /// the `Option` then folds away.)
+    #[inline(always)]
+    pub(crate) fn new(d: [i64; 3]) -> Option<Scaled> {
+        let m = magnitude_bits(&d);
+        if m == 0 {
+            return None;
+        }
+        // The top bit lands on bit 29. 32-bit shifts only (`numerics::wide`):
+        // below 2^30 every component already fits an i32.
+        let shift = 64 - m.leading_zeros() as i32 - 30;
+        let n = if shift <= 0 {
+            let l = (-shift) as u32;
+            [(d[0] as i32) << l, (d[1] as i32) << l, (d[2] as i32) << l]
+        } else {
+            let r = shift as u32;
+            [
+                sar_i64_low(d[0], r),
+                sar_i64_low(d[1], r),
+                sar_i64_low(d[2], r),
+            ]
+        };
+        Some(Scaled { n, shift })
+    }
+
+    /// Squared length in raw units².
+    #[inline(always)]
+    pub(crate) fn norm_sq(&self) -> Sf {
+        let q: u64 = self.n.iter().map(|&c| (c as i64 * c as i64) as u64).sum();
+        Sf::from_u64_inline(q).scale2(2 * self.shift)
+    }
+}
+
+/// The components' magnitudes OR-ed together: 0 for the zero vector, and
+/// the same leading zeros as the largest magnitude (all the callers need),
+/// with fewer operations than the maximum.
+#[inline(always)]
+pub(crate) fn magnitude_bits(c: &[i64; 3]) -> u64 {
+    c[0].unsigned_abs() | c[1].unsigned_abs() | c[2].unsigned_abs()
+}
+
+/// A straight move from one point to the next: unit direction and length.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub(crate) struct Segment {
     /// Unit direction, Q30.
@@ -32,18 +91,13 @@ impl Segment {
 
     /// Unit vector and length of a raw I32F32 difference; `None` for zero.
     fn of_diff(d: [i64; 3]) -> Option<Segment> {
-        let m = d.iter().map(|c| c.unsigned_abs()).max()?;
-        if m == 0 {
-            return None;
-        }
-        // Scale so components fit 31 bits, length via the soft float.
-        let shift = (64 - m.leading_zeros() as i32 - 30).max(0);
-        let n = d.map(|c| c >> shift);
-        let sq: u64 = n.iter().map(|&c| (c * c) as u64).sum();
-        let len_scaled = crate::softfloat::Sf::from_u64(sq).sqrt();
+        let Scaled { n, shift } = Scaled::new(d)?;
+        // Length via the soft float, in the scaled units first.
+        let sq: u64 = n.iter().map(|&c| (c as i64 * c as i64) as u64).sum();
+        let len_scaled = Sf::from_u64(sq).sqrt();
         let len = len_scaled.scale2(shift).to_i64_scaled(0);
         let dir = n.map(|c| {
-            let q = crate::softfloat::Sf::from_u64(c.unsigned_abs())
+            let q = Sf::from_u64(u64::from(c.unsigned_abs()))
                 .div(len_scaled)
                 .map_or(0, |q| q.to_i64_scaled(30).min(1 << 30));
             (if c < 0 { -q } else { q }) as i32
