@@ -666,8 +666,6 @@ fn axis_cap(axis: &[i64; 3], d: [i32; 3]) -> i64 {
     c
 }
 
-/// Unit vector (Q30) and length (Q32) of a raw I32F32 difference; `None`
-
 #[cfg(test)]
 mod tests {
     use super::*;
