@@ -12,8 +12,10 @@
 //!   so a feed hold, an underrun or a lower override never needs more
 //!   deceleration than allowed;
 //! - arc length never decreases and never passes the last finalized node;
-//! - the state here (`&mut self`) is all that changes per tick; limits and
-//!   plan are read through `&Lookahead`.
+//! - the executor changes only its own state (`&mut self`: arc length,
+//!   speed, acceleration, segment); limits and plan are read through
+//!   `&Lookahead` ([`super::Motion::tick`] then lets the buffer drop the
+//!   nodes left behind).
 //!
 //! The counterpart of Grbl's `stepper.c` (which executes the planned
 //! trapezoids segment by segment); the profile is jerk-limited and chosen
