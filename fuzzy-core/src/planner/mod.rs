@@ -87,8 +87,10 @@
 //! from no acceleration to full), and riding a ceiling would alternate
 //! between full acceleration and the stop from tick to tick; there the
 //! executor also halves the range of the tick's end acceleration three
-//! times between the last safe candidate and the first unsafe one (the
-//! jerk then is within `±J` as well). Hence
+//! times between the last safe candidate and the first unsafe one, trying
+//! zero first where the range holds it, each end acceleration reached at
+//! the jerk limit and then held (the jerk then is within `±J` as well, and
+//! the tool settles on a ceiling with zero acceleration). Hence
 //! tangential jerk `<= J`, tangential acceleration `<= ρA`, and every
 //! physical ceiling respected (a lower override is reached at the
 //! acceleration limit, as in Grbl). The per-axis jerk of a polyline is not
