@@ -178,6 +178,9 @@ pub struct Motion<const N: usize> {
     /// of `x`), for the final step onto a stop.
     step: i64,
     step_change: i64,
+    /// Arc length of the last node dropped to free a full buffer while
+    /// still within the corner reach (`unstall`); `i64::MIN` for none.
+    dropped_s: i64,
 }
 
 impl<const N: usize> Motion<N> {
@@ -209,6 +212,7 @@ impl<const N: usize> Motion<N> {
             reached: 0,
             step: 0,
             step_change: 0,
+            dropped_s: i64::MIN,
         })
     }
 
@@ -283,6 +287,7 @@ impl<const N: usize> Motion<N> {
         self.reached = 0;
         self.step = 0;
         self.step_change = 0;
+        self.dropped_s = i64::MIN;
         if let Some(pos) = here {
             let _ = self.nodes.push_back(Node {
                 pos,
@@ -354,7 +359,7 @@ impl<const N: usize> Motion<N> {
                 last.cap = u32::MAX;
                 last.turn = [0; 3];
                 let _ = self.nodes.push_back(node); // not full (checked)
-                self.finalize(false);
+                self.finalize(false, false);
                 return Ok(());
             };
             let seg = st(axis_cap(&lim.axis_speed, dir));
@@ -371,14 +376,14 @@ impl<const N: usize> Motion<N> {
             self.last_dir = Some(dir);
         }
         let _ = self.nodes.push_back(node); // not full (checked)
-        self.finalize(false);
+        self.finalize(false, false);
         Ok(())
     }
 
     /// The path ends at the last pushed point: plan the final stop there.
     pub fn end_path(&mut self) {
         self.ended = true;
-        self.finalize(true);
+        self.finalize(true, false);
     }
 
     fn to_tick_speed(&self, f: FeedMmPerMin) -> i64 {
@@ -422,8 +427,11 @@ impl<const N: usize> Motion<N> {
     }
 
     /// Fix the ceilings of the nodes whose corner window is complete, extend
-    /// the envelope over them.
-    fn finalize(&mut self, all: bool) {
+    /// the envelope over them. `force`: fix the next one even if its window
+    /// is not complete (`unstall`), no faster than a tick's travel short of
+    /// the newest node, whose turn is not known yet (vertices farther than
+    /// a tick's travel do not count: module docs, "Ceilings").
+    fn finalize(&mut self, all: bool, force: bool) {
         let reach = self.lim.reach;
         loop {
             let i = self.finalized;
@@ -437,7 +445,8 @@ impl<const N: usize> Motion<N> {
             };
             // The window ahead must hold nodes whose turn is known (all but
             // the newest).
-            if !all && newest_s <= si.saturating_add(reach) {
+            let forced = force && !all && i + 1 < len;
+            if !all && !forced && newest_s <= si.saturating_add(reach) {
                 break;
             }
             let last_of_path = all && i + 1 == len;
@@ -448,6 +457,9 @@ impl<const N: usize> Motion<N> {
                     .get(i)
                     .map_or(0, |n| ld(n.ceil))
                     .min(self.turn_limit(i))
+                    .min(if forced { newest_s - si } else { i64::MAX })
+                    // Nor does a vertex dropped within the reach behind.
+                    .min(si.saturating_sub(self.dropped_s))
                     .max(self.lim.corner_creep)
             };
             if let Some(n) = self.nodes.get_mut(i) {
@@ -461,6 +473,45 @@ impl<const N: usize> Motion<N> {
             }
             self.finalized = i + 1;
             self.extend_envelope(i);
+            if forced {
+                break;
+            }
+        }
+    }
+
+    /// A full buffer whose unfinalized points all lie within the corner
+    /// reach of the next one never completes a corner window: with the tool
+    /// at rest on the end of what is planned, fix the next point anyway
+    /// (`finalize`, forced), or, when only the newest is left, drop the
+    /// oldest point behind the tool to make room (the ceilings fixed after
+    /// that stay a tick's travel short of it). The tool then moves on,
+    /// stopping at each point, instead of waiting forever.
+    fn unstall(&mut self) {
+        let tail_s = self
+            .finalized
+            .checked_sub(1)
+            .and_then(|t| self.nodes.get(t))
+            .map_or(0, |n| n.s);
+        if !self.nodes.is_full() || self.ended || !self.at_rest() || self.x < tail_s {
+            return;
+        }
+        if self.finalized + 1 < self.nodes.len() {
+            self.finalize(false, true);
+            return;
+        }
+        // (At rest the segment is not advanced: past repeated points too.)
+        let seg = self.seg_of(self.seg, self.x);
+        if seg != self.seg {
+            self.seg = seg;
+            self.seg_dir_valid = false;
+        }
+        if self.seg > 0 {
+            if let Some(n) = self.nodes.pop_front() {
+                self.dropped_s = n.s;
+                self.seg -= 1;
+                self.finalized -= 1;
+                self.front_index = self.front_index.wrapping_add(1);
+            }
         }
     }
 
@@ -750,6 +801,7 @@ impl<const N: usize> Motion<N> {
     }
 
     fn advance(&mut self) -> MotionState {
+        self.unstall();
         if self.finalized < 2 {
             return if self.ended && self.finalized >= 1 {
                 MotionState::Done
