@@ -52,6 +52,13 @@
 //! A segment shorter than the corner reach (2.5 ticks at the maximum feed,
 //! also how far ahead a point waits for its neighbours before its ceiling
 //! is final) inherits its end points' ceilings (they hold along it).
+//! A full buffer whose unfinalized points all lie within the reach (very
+//! dense or repeated points) would wait forever: then, with the tool at
+//! rest on the end of what is planned, the next point is fixed anyway, its
+//! speed a tick's travel short of the newest point (whose turn is not known
+//! yet), and when only the newest is left the oldest point behind the tool
+//! is dropped (later ceilings stay a tick's travel short of it): the tool
+//! stops at each such point but never stalls.
 //!
 //! # Envelope (backward pass)
 //! `T_i = min(ceilings, caps, √(T_{i+1}² + 2·D_env·L_i))`,
