@@ -16,6 +16,9 @@ use fuzzy_core::scheduler::{PathPoint, Scheduler, SchedulerConfig};
 use fuzzy_core::units::{CurvaturePerMm, FeedMmPerMin, Fx, Point3Mm};
 use proptest::prelude::*;
 
+#[path = "planner/monotone.rs"]
+mod monotone;
+
 fn data(rel: &str) -> String {
     std::fs::read_to_string(format!(
         "{}/../tests/data/{rel}",
@@ -122,10 +125,19 @@ fn ts(cfg: &MotionConfig) -> f64 {
 fn drive(
     points: &[MotionPoint],
     cfg: MotionConfig,
-    mut event: impl FnMut(usize, &mut Motion<256>),
+    event: impl FnMut(usize, &mut Motion<256>),
+) -> Vec<T> {
+    drive_n(points, cfg, event)
+}
+
+/// [`drive`] with a buffer (lookahead) of `N` points.
+fn drive_n<const N: usize>(
+    points: &[MotionPoint],
+    cfg: MotionConfig,
+    mut event: impl FnMut(usize, &mut Motion<N>),
 ) -> Vec<T> {
     let ts = ts(&cfg);
-    let mut m: Motion<256> = Motion::new(cfg).unwrap();
+    let mut m: Motion<N> = Motion::new(cfg).unwrap();
     let mut ticks = Vec::new();
     for p in points {
         while m.push(*p) == Err(MotionError::Full) {

@@ -109,6 +109,16 @@ impl Executor {
         self.seg -= 1;
     }
 
+    /// Move the current segment up to where the tool stands (at rest the
+    /// ticks do not advance it: past repeated points too).
+    pub(super) fn catch_up<const N: usize>(&mut self, plan: &Lookahead<N>) {
+        let seg = plan.seg_of(self.seg, self.x);
+        if seg != self.seg {
+            self.seg = seg;
+            self.seg_valid = false;
+        }
+    }
+
     /// Feed hold on/off.
     pub(super) fn set_hold(&mut self, on: bool) {
         self.hold = on;
@@ -277,12 +287,20 @@ impl Executor {
                 _ => (0, 0),
             };
             let (mut lo, mut hi) = (lo, hi);
-            for _ in 0..HALVINGS {
+            // Zero first where the range holds it: the halving's own points
+            // need not include it, and then at a ceiling the acceleration
+            // alternates between them from tick to tick instead of settling.
+            let zero_first = lo < 0 && hi > 0;
+            for h in 0..HALVINGS + usize::from(zero_first) {
                 if hi - lo <= 1 {
                     break;
                 }
-                let a_end = lo + (hi - lo) / 2;
-                match self.candidate(plan, k, &[(ONE, a_end - self.a), (0, 0)]) {
+                let a_end = if h == 0 && zero_first {
+                    0
+                } else {
+                    lo + (hi - lo) / 2
+                };
+                match self.candidate(plan, k, &ramp_phases(self.a, a_end, j)) {
                     Some(c) => {
                         next = Some(c);
                         lo = a_end;
@@ -471,5 +489,22 @@ fn step_phases(a: i64, jerk: i64, acc: i64) -> [(i64, i64); 2] {
         [(ONE, jerk), (0, 0)]
     } else {
         [(t, jerk), (ONE - t, 0)]
+    }
+}
+
+/// A tick that ramps the acceleration from `a` to `a_end` at the jerk
+/// limit, then holds it (`|a_end − a| <= jerk`; a linear ramp over the
+/// whole tick otherwise). Reaching the end acceleration early changes the
+/// speed least: settling onto a ceiling from `a > 0` costs `a²/2J` of speed
+/// instead of a whole tick's `a·Ts/2`, which may not fit under it.
+fn ramp_phases(a: i64, a_end: i64, jerk: i64) -> [(i64, i64); 2] {
+    let d = a_end - a;
+    let t = div(d.abs(), jerk.max(1));
+    if d == 0 {
+        [(ONE, 0), (0, 0)]
+    } else if t >= ONE {
+        [(ONE, d), (0, 0)]
+    } else {
+        [(t, d.signum() * jerk), (ONE - t, 0)]
     }
 }

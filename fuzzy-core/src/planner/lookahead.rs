@@ -144,6 +144,10 @@ pub(super) struct Lookahead<const N: usize> {
     override_q16: i64,
     /// Path index of `nodes[0]`.
     front_index: u32,
+    /// Arc length of the last node dropped to free a full buffer while
+    /// still within the corner reach ([`Lookahead::stalled`]); `i64::MIN`
+    /// for none.
+    dropped_s: i64,
 }
 
 impl<const N: usize> Lookahead<N> {
@@ -157,6 +161,7 @@ impl<const N: usize> Lookahead<N> {
             last_dir: None,
             override_q16: 1 << 16,
             front_index: 0,
+            dropped_s: i64::MIN,
         }
     }
 
@@ -239,6 +244,7 @@ impl<const N: usize> Lookahead<N> {
         self.ended = false;
         self.last_dir = None;
         self.front_index = 0;
+        self.dropped_s = i64::MIN;
         if let Some(pos) = here {
             let _ = self.nodes.push_back(Node {
                 pos,
@@ -315,7 +321,7 @@ impl<const N: usize> Lookahead<N> {
                 last.cap = u32::MAX;
                 last.turn = [0; 3];
                 let _ = self.nodes.push_back(node); // not full (checked)
-                self.finalize(false);
+                self.finalize(false, false);
                 return Ok(());
             };
             let seg = st(axis_cap(&lim.axis_speed, dir));
@@ -332,14 +338,14 @@ impl<const N: usize> Lookahead<N> {
             self.last_dir = Some(dir);
         }
         let _ = self.nodes.push_back(node); // not full (checked)
-        self.finalize(false);
+        self.finalize(false, false);
         Ok(())
     }
 
     /// The path ends at the last pushed point: plan the final stop there.
     pub(super) fn end_path(&mut self) {
         self.ended = true;
-        self.finalize(true);
+        self.finalize(true, false);
     }
 
     fn to_tick_speed(&self, f: FeedMmPerMin) -> i64 {
@@ -383,8 +389,12 @@ impl<const N: usize> Lookahead<N> {
     }
 
     /// Fix the ceilings of the nodes whose corner window is complete, extend
-    /// the envelope over them.
-    fn finalize(&mut self, all: bool) {
+    /// the envelope over them. `force`: fix the next one even if its window
+    /// is not complete ([`Lookahead::stalled`]), no faster than a tick's
+    /// travel short of the newest node, whose turn is not known yet
+    /// (vertices farther than a tick's travel do not count: module docs,
+    /// "Ceilings").
+    fn finalize(&mut self, all: bool, force: bool) {
         let reach = self.lim.reach;
         loop {
             let i = self.finalized;
@@ -398,7 +408,8 @@ impl<const N: usize> Lookahead<N> {
             };
             // The window ahead must hold nodes whose turn is known (all but
             // the newest).
-            if !all && newest_s <= si.saturating_add(reach) {
+            let forced = force && !all && i + 1 < len;
+            if !all && !forced && newest_s <= si.saturating_add(reach) {
                 break;
             }
             let last_of_path = all && i + 1 == len;
@@ -409,6 +420,9 @@ impl<const N: usize> Lookahead<N> {
                     .get(i)
                     .map_or(0, |n| ld(n.ceil))
                     .min(self.turn_limit(i))
+                    .min(if forced { newest_s - si } else { i64::MAX })
+                    // Nor does a vertex dropped within the reach behind.
+                    .min(si.saturating_sub(self.dropped_s))
                     .max(self.lim.corner_creep)
             };
             if let Some(n) = self.nodes.get_mut(i) {
@@ -422,7 +436,49 @@ impl<const N: usize> Lookahead<N> {
             }
             self.finalized = i + 1;
             self.extend_envelope(i);
+            if forced {
+                break;
+            }
         }
+    }
+
+    /// A full buffer whose unfinalized points all lie within the corner
+    /// reach of the next one never completes a corner window: whether the
+    /// buffer is full, the path not ended, and arc length `x` (the tool's,
+    /// at rest) on the end of what is planned. [`super::Motion`] then fixes
+    /// the next point anyway ([`Lookahead::force_next`]) or, when only the
+    /// newest is left, drops the oldest point behind the tool to make room
+    /// ([`Lookahead::drop_stalled_front`]; the ceilings fixed after that stay
+    /// a tick's travel short of it). The tool moves on, stopping at each
+    /// point, instead of waiting forever.
+    pub(super) fn stalled(&self, x: i64) -> bool {
+        let tail_s = self
+            .finalized
+            .checked_sub(1)
+            .and_then(|t| self.nodes.get(t))
+            .map_or(0, |n| n.s);
+        self.nodes.is_full() && !self.ended && x >= tail_s
+    }
+
+    /// Whether a node other than the newest waits to be finalized.
+    pub(super) fn can_force(&self) -> bool {
+        self.finalized + 1 < self.nodes.len()
+    }
+
+    /// Finalize the next node although its corner window is not complete.
+    pub(super) fn force_next(&mut self) {
+        self.finalize(false, true);
+    }
+
+    /// Drop the oldest node of a stalled buffer; whether one was dropped.
+    pub(super) fn drop_stalled_front(&mut self) -> bool {
+        let Some(n) = self.nodes.pop_front() else {
+            return false;
+        };
+        self.dropped_s = n.s;
+        self.finalized = self.finalized.saturating_sub(1);
+        self.front_index = self.front_index.wrapping_add(1);
+        true
     }
 
     /// The largest speed at node `i` for which the direction changes near it

@@ -78,6 +78,13 @@
 //! A segment shorter than the corner reach (2.5 ticks at the maximum feed,
 //! also how far ahead a point waits for its neighbours before its ceiling
 //! is final) inherits its end points' ceilings (they hold along it).
+//! A full buffer whose unfinalized points all lie within the reach (very
+//! dense or repeated points) would wait forever: then, with the tool at
+//! rest on the end of what is planned, the next point is fixed anyway, its
+//! speed a tick's travel short of the newest point (whose turn is not known
+//! yet), and when only the newest is left the oldest point behind the tool
+//! is dropped (later ceilings stay a tick's travel short of it): the tool
+//! stops at each such point but never stalls.
 //!
 //! # Envelope (backward pass)
 //! `T_i = min(ceilings, caps, √(T_{i+1}² + 2·D_env·L_i))`,
@@ -113,8 +120,10 @@
 //! from no acceleration to full), and riding a ceiling would alternate
 //! between full acceleration and the stop from tick to tick; there the
 //! executor also halves the range of the tick's end acceleration three
-//! times between the last safe candidate and the first unsafe one (the
-//! jerk then is within `±J` as well). Hence
+//! times between the last safe candidate and the first unsafe one, trying
+//! zero first where the range holds it, each end acceleration reached at
+//! the jerk limit and then held (the jerk then is within `±J` as well, and
+//! the tool settles on a ceiling with zero acceleration). Hence
 //! tangential jerk `<= J`, tangential acceleration `<= ρA`, and every
 //! physical ceiling respected (a lower override is reached at the
 //! acceleration limit, as in Grbl). The per-axis jerk of a polyline is not

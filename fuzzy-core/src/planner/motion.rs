@@ -108,10 +108,27 @@ impl<const N: usize> Motion<N> {
 
     /// One interpolation tick.
     pub fn tick(&mut self) -> Tick {
+        self.unstall();
         let state = self.exec.advance(&self.plan);
         self.drop_passed();
         let pos = self.exec.position(&self.plan);
         self.exec.output(pos, state)
+    }
+
+    /// Free a full buffer stalled within the corner reach, with the tool
+    /// at rest ([`Lookahead::stalled`]).
+    fn unstall(&mut self) {
+        if !self.exec.at_rest() || !self.plan.stalled(self.exec.x()) {
+            return;
+        }
+        if self.plan.can_force() {
+            self.plan.force_next();
+            return;
+        }
+        self.exec.catch_up(&self.plan);
+        if self.exec.seg() > 0 && self.plan.drop_stalled_front() {
+            self.exec.front_dropped();
+        }
     }
 
     /// Drop nodes more than the corner reach behind the executor.
