@@ -8,9 +8,9 @@
 //! against them (a firmware built with other variables than the tests
 //! fails that check instead of comparing different machines).
 
+use core::mem::MaybeUninit;
 use fixed::types::{I16F16, I32F32};
 use fuzzy_core::lin2021::Lin2021Compact;
-use core::mem::MaybeUninit;
 
 use fuzzy_core::planner::{ConfigError, Motion, MotionConfig};
 use fuzzy_core::scheduler::{Scheduler, SchedulerConfig};
@@ -262,7 +262,10 @@ mod tests {
         let plan = plan_in(&mut slot, c).expect("valid settings");
         let direct = Plan::new(c).unwrap().accel_limit_mm_s2();
         assert_eq!(plan.accel_limit_mm_s2(), direct);
-        assert_ne!(direct, Plan::new(MOTION_CONFIG).unwrap().accel_limit_mm_s2());
+        assert_ne!(
+            direct,
+            Plan::new(MOTION_CONFIG).unwrap().accel_limit_mm_s2()
+        );
         let bad = MotionConfig {
             feed_max: FeedMmPerMin::ZERO,
             ..MOTION_CONFIG
