@@ -49,9 +49,14 @@
 //!   (`OutOfTravel`, a batch all or nothing); `Machine` commands (spindle,
 //!   coolant) are sequenced and queued like points;
 //! - settings (`GetSetting`, `SetSetting`, [`crate::config`]): a write is
-//!   taken only at rest with nothing queued or in an alarm (`Busy`), only
-//!   in range (`OutOfRange`, `UnknownSetting`: nothing changed), and the
-//!   background applies and stores it; `Home` only at rest (`Busy`) with
+//!   taken only with nothing moving: at rest with nothing queued, or in an
+//!   alarm the background has carried out (the tick stopped, everything
+//!   queued dropped; `Busy` otherwise), and with the spindle and coolant
+//!   off (`OutputsOn`), because the background stores it in flash next,
+//!   and a sector erase stalls the core, the tick and its e-stop input
+//!   with it (`firmware/README.md`, flash settings); only in range
+//!   (`OutOfRange`, `UnknownSetting`: nothing changed); the background
+//!   applies and stores it; `Home` only at rest (`Busy`) with
 //!   homing enabled (`Rejected`); `MachineQuery` is answered at once.
 //!
 //! Sequence numbers and the queue: commands leave the queue in order, so
@@ -280,7 +285,8 @@ pub struct DeviceLink {
     pub config: Config,
     /// Counts the changes of `config` (the background follows it).
     pub config_version: u32,
-    /// A changed setting applies only after a reset.
+    /// A changed setting applies only after a reset (the tick rate, the
+    /// spindle PWM frequency).
     pub restart_needed: bool,
     /// The settings store: how it was read, or the last write.
     pub store: StoreResult,
@@ -388,6 +394,24 @@ impl DeviceLink {
     /// (settings may change, a homing cycle may start).
     fn idle(&self, exec: &TickExecutor) -> bool {
         self.queued() == 0 && self.info.idle && !self.abort && !exec.now.moving && !self.info.homing
+    }
+
+    /// Whether settings may be written now (module docs): nothing moves
+    /// (at rest with nothing queued, or a carried-out alarm) and the
+    /// spindle and coolant are off.
+    fn writable(&self, exec: &TickExecutor) -> Result<(), ErrorCode> {
+        let still = if self.latch.phase() == Phase::Alarm {
+            self.alarm_handled && !exec.now.moving
+        } else {
+            self.idle(exec)
+        };
+        if !still {
+            return Err(ErrorCode::Busy);
+        }
+        if self.info.spindle.any_on() {
+            return Err(ErrorCode::OutputsOn);
+        }
+        Ok(())
     }
 
     /// Whether path commands are refused now, and why.
@@ -557,10 +581,7 @@ impl DeviceLink {
                 return Ok(Reply::Setting(id, v));
             }
             HostMsg::SetSetting { id, value } => {
-                let alarm = self.latch.phase() == Phase::Alarm;
-                if !alarm && !self.idle(&exec()) {
-                    return Err(ErrorCode::Busy);
-                }
+                self.writable(&exec())?;
                 let info = self.config.set(id, value).map_err(|e| match e {
                     SettingError::Unknown => ErrorCode::UnknownSetting,
                     SettingError::OutOfRange => ErrorCode::OutOfRange,

@@ -8,6 +8,7 @@ use controller::planning::Setpoint;
 use controller::ring::{Consumer, Producer};
 use controller::session::DeviceLink;
 use controller::settings::{CMD_QUEUE, SETPOINT_RING};
+use controller::steps::StepSettings;
 use rtic::Mutex;
 
 use crate::link_port::{self, LinkPort};
@@ -41,11 +42,13 @@ impl Idle {
     }
 
     /// The loop; it sleeps until an interrupt when nothing is left to do
-    /// (a tick frees a ring slot, a byte brings a command).
+    /// (a tick frees a ring slot, a byte brings a command). Step settings
+    /// changed over the link go to the tick through `step_settings`.
     pub fn run(
         &mut self,
         link: &mut impl Mutex<T = DeviceLink>,
         port: &mut impl Mutex<T = LinkPort>,
+        step_settings: &mut impl Mutex<T = Option<StepSettings>>,
     ) -> ! {
         loop {
             self.machine.feed_watchdog();
@@ -60,6 +63,9 @@ impl Idle {
                 stack,
                 machine::log,
             );
+            if let Some(s) = self.background.take_step_settings() {
+                step_settings.lock(|p| *p = Some(s));
+            }
             if !busy && pending == 0 && !self.cmds.ready() && !self.setpoints.ready() {
                 cortex_m::asm::wfi();
             }

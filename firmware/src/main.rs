@@ -36,12 +36,12 @@ mod app {
     use controller::ring::Ring;
     use controller::session::DeviceLink;
     use controller::settings::{Plan, CMD_QUEUE, SETPOINT_RING};
+    use controller::steps::StepSettings;
     use controller::steps::{PlanQueue, StepShared};
     use controller::tick::TickExecutor;
     use fuzzy_firmware::idle::Idle;
     use fuzzy_firmware::link_port::{LinkPort, LinkRx};
     use fuzzy_firmware::start::{self, Slots};
-    #[allow(unused_imports)] // (RTIC names the types of cfg'd resources)
     use fuzzy_firmware::step_output::StepIsr;
     use fuzzy_firmware::tick::Tick;
 
@@ -50,13 +50,13 @@ mod app {
         link: DeviceLink,
         exec: TickExecutor,
         port: LinkPort,
+        step_settings: Option<StepSettings>,
+        step_isr: StepIsr,
     }
 
     #[local]
     struct Local {
         tick: Tick,
-        #[cfg(not(feature = "qemu"))]
-        step_isr: StepIsr,
         link_rx: LinkRx,
         idle: Idle,
     }
@@ -85,11 +85,11 @@ mod app {
             link: app.link,
             exec: app.exec,
             port: app.port,
+            step_settings: None,
+            step_isr: app.step_isr,
         };
         let local = Local {
             tick: app.tick,
-            #[cfg(not(feature = "qemu"))]
-            step_isr: app.step_isr,
             link_rx: app.link_rx,
             idle: app.idle,
         };
@@ -98,16 +98,19 @@ mod app {
 
     /// The step timer's compare match (or a stop's kick).
     #[cfg(not(feature = "qemu"))]
-    #[task(binds = TIM2, priority = 4, local = [step_isr])]
-    fn step(cx: step::Context) {
-        cx.local.step_isr.on_interrupt();
+    #[task(binds = TIM2, priority = 4, shared = [step_isr])]
+    fn step(mut cx: step::Context) {
+        cx.shared.step_isr.lock(|s| s.on_interrupt());
     }
 
     /// Inputs and stops, then the next setpoint to the step output, every
     /// timer period.
-    #[task(binds = SysTick, priority = 3, local = [tick], shared = [exec])]
-    fn tick(mut cx: tick::Context) {
-        cx.local.tick.run(&mut cx.shared.exec);
+    #[task(binds = SysTick, priority = 3, local = [tick], shared = [exec, step_settings, step_isr])]
+    fn tick(cx: tick::Context) {
+        let mut sh = cx.shared;
+        cx.local
+            .tick
+            .run(&mut sh.exec, &mut sh.step_settings, &mut sh.step_isr);
     }
 
     /// Every received byte: frames to the session, replies to the wire.
@@ -129,9 +132,11 @@ mod app {
     }
 
     /// Background: watchdog, transmit, one pass, sleep when idle.
-    #[idle(local = [idle], shared = [link, port])]
+    #[idle(local = [idle], shared = [link, port, step_settings])]
     fn idle(cx: idle::Context) -> ! {
         let mut sh = cx.shared;
-        cx.local.idle.run(&mut sh.link, &mut sh.port)
+        cx.local
+            .idle
+            .run(&mut sh.link, &mut sh.port, &mut sh.step_settings)
     }
 }

@@ -53,7 +53,8 @@ pub struct App {
     pub port: LinkPort,
     /// The tick's own.
     pub tick: Tick,
-    /// The step timer's interrupt (nothing under QEMU).
+    /// The step timer's interrupt (nothing under QEMU; the tick's too, to
+    /// apply new step settings).
     pub step_isr: StepIsr,
     /// The receive interrupt's own.
     pub link_rx: LinkRx,

@@ -6,6 +6,11 @@
 //! interrupt runs the engine; under QEMU, whose TIM2 raises no compare
 //! match (see [`crate::board`]), the tick runs the engine itself over its
 //! window ([`controller::stepper::SoftSteps`]).
+//!
+//! Step settings written at rest are applied by the tick
+//! ([`controller::guard::Guard::apply_step_settings`]): its planner
+//! anew, then the engine, on a board with the step interrupt held off
+//! for the moment ([`reconfigure_isr`]).
 
 use controller::config::Config;
 use controller::stepper::first_window;
@@ -14,7 +19,9 @@ use controller::stepper::StepPins;
 use controller::stepper::StepQueue;
 #[cfg(not(feature = "qemu"))]
 use controller::steps::Due;
-use controller::steps::{PlanQueue, Planner, StepConfigError, StepEngine, StepShared};
+use controller::steps::{
+    PlanQueue, Planner, StepConfigError, StepEngine, StepSettings, StepShared,
+};
 use fuzzy_core::units::Point3Mm;
 
 use crate::board::{StepGpio, StepTimer};
@@ -52,10 +59,12 @@ pub fn start(
     pins: StepGpio,
     timer: StepTimer,
 ) -> Result<(Steps, StepIsr), StepConfigError> {
-    let timing = config.step_timing()?;
-    let spm = [0, 1, 2].map(|a| config.steps_per_mm(a));
+    let StepSettings {
+        timing,
+        steps_per_mm,
+    } = config.step_settings()?;
     let (plan_tx, plan_rx) = plans.split();
-    let planner = Planner::new(spm, &timing, Point3Mm::ORIGIN);
+    let planner = Planner::new(steps_per_mm, &timing, Point3Mm::ORIGIN);
     let start = planner.position();
     let queue = StepQueue::new(planner, plan_tx, shared);
     #[cfg(not(feature = "qemu"))]
@@ -123,3 +132,21 @@ impl StepIsr {
         }
     }
 }
+
+/// The step interrupt's half of new step settings `s` the tick's half
+/// (`steps`) took: the engine rebuilt where the tick's planner now starts,
+/// the step pins to their rest levels, the compare armed for the next
+/// batch (called from the tick, the step interrupt locked out).
+#[cfg(not(feature = "qemu"))]
+pub fn reconfigure_isr(isr: &mut StepIsr, s: &StepSettings, steps: &Steps) {
+    isr.engine.reconfigure(s.timing, steps.position());
+    isr.pins.write(isr.engine.idle_edges());
+    isr.pending = isr.engine.due();
+    if isr.timer.arm(isr.pending.at) {
+        StepTimer::kick();
+    }
+}
+
+/// Nothing: under QEMU the tick's half ([`Steps`]) holds the engine too.
+#[cfg(feature = "qemu")]
+pub fn reconfigure_isr(_: &mut StepIsr, _: &StepSettings, _: &Steps) {}

@@ -1,6 +1,7 @@
 //! The tick interrupt's work: the inputs read, alarms and stops
 //! ([`controller::guard`]), the next setpoint to the step output
-//! ([`controller::tick`]), the driver enable, the step lag checked and the
+//! ([`controller::tick`]), the driver enable, the step lag checked, step
+//! settings written at rest applied once the last steps are out, and the
 //! tick's own cost kept ([`TickExecutor::worst_cycles`]).
 
 use controller::alarm::Latch;
@@ -8,12 +9,13 @@ use controller::guard::Guard;
 use controller::planning::Setpoint;
 use controller::ring::Consumer;
 use controller::settings::SETPOINT_RING;
+use controller::steps::StepSettings;
 use controller::tick::TickExecutor;
 use rtic::Mutex;
 
 use crate::board::{Enable, Inputs};
 use crate::measure;
-use crate::step_output::Steps;
+use crate::step_output::{self, StepIsr, Steps};
 
 /// What only the tick uses.
 pub struct Tick {
@@ -45,8 +47,14 @@ impl Tick {
         }
     }
 
-    /// One tick period.
-    pub fn run(&mut self, exec: &mut impl Mutex<T = TickExecutor>) {
+    /// One tick period; `pending`: step settings from the background, `isr`
+    /// the step interrupt's state (locked only to apply them).
+    pub fn run(
+        &mut self,
+        exec: &mut impl Mutex<T = TickExecutor>,
+        pending: &mut impl Mutex<T = Option<StepSettings>>,
+        isr: &mut impl Mutex<T = StepIsr>,
+    ) {
         let t0 = measure::cycles_in_period();
         let latch = self.latch;
         let raw = self.inputs.read();
@@ -57,6 +65,14 @@ impl Tick {
                 .tick(raw, latch, e, &mut self.setpoints, &mut self.steps);
             self.enable.set(on, latch.guard_config().enable_invert);
             self.guard.check_lag(latch, &e.steps);
+            pending.lock(|p| {
+                let Some(s) = *p else {
+                    return;
+                };
+                if self.guard.apply_step_settings(p, latch, e, &mut self.steps) {
+                    isr.lock(|i| step_output::reconfigure_isr(i, &s, &self.steps));
+                }
+            });
             // From entry to here (the wake-up latency is not the tick's
             // cost, and under QEMU's -icount it depends on host timing).
             e.worst_cycles = e.worst_cycles.max(measure::cycles_in_period_since(t0));

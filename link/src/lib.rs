@@ -218,7 +218,9 @@ pub enum HostMsg {
         /// Its id (Grbl's `$N` numbering where one exists).
         id: u16,
     },
-    /// Write a setting (at rest only, [`ErrorCode::Busy`] otherwise):
+    /// Write a setting (at rest with nothing queued or in a carried-out
+    /// alarm only, [`ErrorCode::Busy`] otherwise; with the spindle and
+    /// coolant off, [`ErrorCode::OutputsOn`] otherwise):
     /// checked ([`ErrorCode::OutOfRange`], [`ErrorCode::UnknownSetting`]:
     /// nothing changed), stored, answered with [`DeviceMsg::Setting`].
     SetSetting {
@@ -519,6 +521,10 @@ pub enum ErrorCode {
     UnknownSetting,
     /// `HostMsg::Unlock` while the e-stop input is active.
     InputActive,
+    /// A setting written with the spindle or coolant on: settings are
+    /// written to flash, whose erase stalls the controller, so only with
+    /// the outputs off.
+    OutputsOn,
 }
 
 /// Controller to host.

@@ -103,6 +103,17 @@ impl PlanTx<'_> {
     }
 }
 
+/// A queue nothing is ever written to.
+static NEVER: PlanQueue = PlanQueue::new();
+
+impl PlanRx<'static> {
+    /// The reading end of a queue that stays empty: what an engine holds
+    /// for the moment it is rebuilt.
+    pub(crate) fn never() -> Self {
+        PlanRx { q: &NEVER }
+    }
+}
+
 impl PlanRx<'_> {
     /// Whether a plan is waiting.
     #[inline(always)]
