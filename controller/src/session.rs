@@ -747,6 +747,8 @@ impl DeviceLink {
             step_lag_ticks: exec.steps.lag_ticks,
             step_lag_max_steps: exec.steps.lag_max_steps,
             step_late_ticks: exec.steps.late_windows,
+            worst_step_isr_cycles: exec.worst_step_isr_cycles,
+            worst_step_isr_tick_cycles: exec.worst_step_isr_tick_cycles,
         }
     }
 }

@@ -1,15 +1,17 @@
 //! The machine around the motion as the background pass drives it
 //! ([`MachineIo`]): the spindle and coolant outputs, the settings store in
-//! flash (the watchdog's timeout lengthened over an erase), and the
-//! background's notices as log lines.
+//! flash (the watchdog's timeout lengthened over an erase, an e-stop
+//! pressed while the core stalls on it latched and raised after it), and
+//! the background's notices as log lines.
 
+use controller::alarm::Latch;
 use controller::background::{MachineIo, Notice};
 use controller::config::Config;
 use controller::spindle::MachineOutputs;
 use controller::store::Store;
-use link::StoreResult;
+use link::{AlarmCode, StoreResult};
 
-use crate::board::{Outputs, SettingsFlash, Watchdog};
+use crate::board::{self, Outputs, SettingsFlash, Watchdog};
 
 /// The spindle, coolant and settings store, as the background drives
 /// them.
@@ -18,17 +20,25 @@ pub struct Machine {
     flash: SettingsFlash,
     store: Store,
     watchdog: Watchdog,
+    latch: &'static Latch,
 }
 
 impl Machine {
     /// The outputs, the settings sector with its store, the (started)
-    /// watchdog.
-    pub fn new(outputs: Outputs, flash: SettingsFlash, store: Store, watchdog: Watchdog) -> Self {
+    /// watchdog, the alarm state.
+    pub fn new(
+        outputs: Outputs,
+        flash: SettingsFlash,
+        store: Store,
+        watchdog: Watchdog,
+        latch: &'static Latch,
+    ) -> Self {
         Machine {
             outputs,
             flash,
             store,
             watchdog,
+            latch,
         }
     }
 
@@ -43,11 +53,19 @@ impl MachineIo for Machine {
         self.outputs.set(o);
     }
 
+    /// Taken only with nothing moving and the outputs off
+    /// (`controller::session`): the core stalls on the flash for up to
+    /// 2 s (an erase), the tick with it; the watchdog waits, and a change
+    /// of the e-stop pin meanwhile trips the alarm after it (the tick sees
+    /// only the level it then has).
     fn save(&mut self, c: &Config) -> StoreResult {
-        // An erase stalls the core for up to 2 s: the watchdog waits.
+        let _ = board::estop_changed();
         self.watchdog.long(true);
         let r = self.store.save(&mut self.flash, c);
         self.watchdog.long(false);
+        if board::estop_changed() {
+            self.latch.trip(AlarmCode::EStopInput);
+        }
         r
     }
 }

@@ -137,7 +137,7 @@ pub fn start(
             cmd_rx,
             sp_tx,
             background,
-            Machine::new(b.outputs, b.flash, store, b.watchdog),
+            Machine::new(b.outputs, b.flash, store, b.watchdog, latch),
         ),
     }
 }

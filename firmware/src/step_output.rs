@@ -25,6 +25,10 @@ use controller::steps::{
 use fuzzy_core::units::Point3Mm;
 
 use crate::board::{StepGpio, StepTimer};
+#[cfg(not(feature = "qemu"))]
+use crate::measure;
+#[cfg(not(feature = "qemu"))]
+use core::sync::atomic::{AtomicU32, Ordering};
 
 /// The tick's step output.
 #[cfg(not(feature = "qemu"))]
@@ -100,9 +104,50 @@ pub fn start(
     }
 }
 
+/// The step interrupt's worst call, cycles (written by it alone).
+#[cfg(not(feature = "qemu"))]
+static ISR_WORST: AtomicU32 = AtomicU32::new(0);
+/// Cycles the step interrupt took since the tick last asked.
+#[cfg(not(feature = "qemu"))]
+static ISR_SINCE: AtomicU32 = AtomicU32::new(0);
+
+/// The step interrupt's cost for the tick: its worst call so far and the
+/// cycles it took since the last call (the tick asks once a period), from
+/// its first instruction to its last (the entry and exit, about 12 cycles
+/// each, are not counted). Zeros under QEMU (the tick runs the engine).
+pub fn take_isr_cycles() -> (u32, u32) {
+    #[cfg(not(feature = "qemu"))]
+    {
+        (
+            ISR_WORST.load(Ordering::Relaxed),
+            ISR_SINCE.swap(0, Ordering::Relaxed),
+        )
+    }
+    #[cfg(feature = "qemu")]
+    {
+        (0, 0)
+    }
+}
+
 #[cfg(not(feature = "qemu"))]
 impl StepIsr {
-    /// The step timer's compare interrupt: a stop (or resume) the tick
+    /// The step timer's compare interrupt ([`Self::step`]), its cycles
+    /// counted ([`take_isr_cycles`]).
+    #[inline]
+    pub fn on_interrupt(&mut self) {
+        let t0 = measure::cycles_in_period();
+        self.step();
+        let c = measure::cycles_in_period_since(t0);
+        // The only writer of both (the tick's swap retries if this
+        // interrupt comes between its exclusive load and store).
+        if c > ISR_WORST.load(Ordering::Relaxed) {
+            ISR_WORST.store(c, Ordering::Relaxed);
+        }
+        let since = ISR_SINCE.load(Ordering::Relaxed);
+        ISR_SINCE.store(since.saturating_add(c), Ordering::Relaxed);
+    }
+
+    /// A stop (or resume) the tick
     /// asked for first, then the edges due now, then the next batch. Pins
     /// first, so that every edge follows its compare match by the same
     /// few cycles; the engine is told the counter read after the write
@@ -110,8 +155,8 @@ impl StepIsr {
     /// already due when the compare is set is written at once (late by
     /// the engine's own time); a stale interrupt (nothing due yet) only
     /// clears the flag.
-    #[inline]
-    pub fn on_interrupt(&mut self) {
+    #[inline(always)]
+    fn step(&mut self) {
         if self.engine.poll_halt() {
             self.pending = self.engine.due();
             if !self.timer.arm(self.pending.at) {

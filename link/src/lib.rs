@@ -455,6 +455,14 @@ pub struct Status {
     /// Ticks the step engine ran without a plan (the tick interrupt late by
     /// more than half a tick): the motion after ran a tick later.
     pub step_late_ticks: u32,
+    /// Worst step timer interrupt so far, core cycles from its first
+    /// instruction (the interrupt entry not counted); 0 where the tick
+    /// runs the step engine itself (QEMU: within `worst_tick_cycles`).
+    pub worst_step_isr_cycles: u32,
+    /// Most core cycles the step timer interrupt took within one tick
+    /// period so far: over (core clock / tick rate), its worst share of
+    /// the core; 0 as `worst_step_isr_cycles`.
+    pub worst_step_isr_tick_cycles: u32,
 }
 
 /// A command the velocity planner took (reported by [`DeviceMsg::Planned`]).
@@ -850,6 +858,8 @@ mod tests {
             step_lag_ticks: u32::MAX,
             step_lag_max_steps: u32::MAX,
             step_late_ticks: u32::MAX,
+            worst_step_isr_cycles: u32::MAX,
+            worst_step_isr_tick_cycles: u32::MAX,
             planned_points: u16::MAX,
             points_held: u16::MAX,
             override_percent: u16::MAX,
