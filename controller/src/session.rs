@@ -464,8 +464,8 @@ impl DeviceLink {
         next
     }
 
-    /// The machine status reply.
-    pub fn machine_status(&self) -> MachineStatus {
+    /// The machine status reply, with the tick's state `exec`.
+    pub fn machine_status(&self, exec: &TickExecutor) -> MachineStatus {
         let i = &self.info;
         MachineStatus {
             alarm: self.latch.alarm(),
@@ -479,6 +479,7 @@ impl DeviceLink {
             mist: i.spindle.mist,
             store: self.store,
             restart_needed: self.restart_needed,
+            step_isr_permille: exec.worst_step_isr_permille,
         }
     }
 
@@ -499,7 +500,7 @@ impl DeviceLink {
         let reply = match frame.and_then(|m| self.handle(m, queue, &mut exec)) {
             Ok(Reply::Ack) => self.session.ack(),
             Ok(Reply::Status) => DeviceMsg::Status(self.status(&exec())),
-            Ok(Reply::Machine) => DeviceMsg::Machine(self.machine_status()),
+            Ok(Reply::Machine) => DeviceMsg::Machine(self.machine_status(&exec())),
             Ok(Reply::Setting(id, value)) => DeviceMsg::Setting { id, value },
             Err(code) => {
                 self.session.bad_frames = self.session.bad_frames.wrapping_add(1);
@@ -747,8 +748,6 @@ impl DeviceLink {
             step_lag_ticks: exec.steps.lag_ticks,
             step_lag_max_steps: exec.steps.lag_max_steps,
             step_late_ticks: exec.steps.late_windows,
-            worst_step_isr_cycles: exec.worst_step_isr_cycles,
-            worst_step_isr_tick_cycles: exec.worst_step_isr_tick_cycles,
         }
     }
 }

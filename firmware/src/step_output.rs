@@ -104,28 +104,24 @@ pub fn start(
     }
 }
 
-/// The step interrupt's worst call, cycles (written by it alone).
-#[cfg(not(feature = "qemu"))]
-static ISR_WORST: AtomicU32 = AtomicU32::new(0);
-/// Cycles the step interrupt took since the tick last asked.
+/// Cycles the step interrupt took since the tick last asked (written by
+/// it alone: the tick's swap retries if the interrupt comes between its
+/// exclusive load and store).
 #[cfg(not(feature = "qemu"))]
 static ISR_SINCE: AtomicU32 = AtomicU32::new(0);
 
-/// The step interrupt's cost for the tick: its worst call so far and the
-/// cycles it took since the last call (the tick asks once a period), from
-/// its first instruction to its last (the entry and exit, about 12 cycles
-/// each, are not counted). Zeros under QEMU (the tick runs the engine).
-pub fn take_isr_cycles() -> (u32, u32) {
+/// The cycles the step interrupt took since the last call (the tick asks
+/// once a period), each call from its first instruction to its last (the
+/// entry and exit, about 12 cycles each, not counted). 0 under QEMU (the
+/// tick runs the engine).
+pub fn take_isr_cycles() -> u32 {
     #[cfg(not(feature = "qemu"))]
     {
-        (
-            ISR_WORST.load(Ordering::Relaxed),
-            ISR_SINCE.swap(0, Ordering::Relaxed),
-        )
+        ISR_SINCE.swap(0, Ordering::Relaxed)
     }
     #[cfg(feature = "qemu")]
     {
-        (0, 0)
+        0
     }
 }
 
@@ -138,11 +134,6 @@ impl StepIsr {
         let t0 = measure::cycles_in_period();
         self.step();
         let c = measure::cycles_in_period_since(t0);
-        // The only writer of both (the tick's swap retries if this
-        // interrupt comes between its exclusive load and store).
-        if c > ISR_WORST.load(Ordering::Relaxed) {
-            ISR_WORST.store(c, Ordering::Relaxed);
-        }
         let since = ISR_SINCE.load(Ordering::Relaxed);
         ISR_SINCE.store(since.saturating_add(c), Ordering::Relaxed);
     }

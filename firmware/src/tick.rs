@@ -65,9 +65,8 @@ impl Tick {
                 .tick(raw, latch, e, &mut self.setpoints, &mut self.steps);
             self.enable.set(on, latch.guard_config().enable_invert);
             self.guard.check_lag(latch, &e.steps);
-            let (worst, since) = step_output::take_isr_cycles();
-            e.worst_step_isr_cycles = worst;
-            e.worst_step_isr_tick_cycles = e.worst_step_isr_tick_cycles.max(since);
+            let share = measure::permille_of_period(step_output::take_isr_cycles());
+            e.worst_step_isr_permille = e.worst_step_isr_permille.max(share);
             pending.lock(|p| {
                 let Some(s) = *p else {
                     return;

@@ -368,6 +368,11 @@ pub struct MachineStatus {
     pub store: StoreResult,
     /// A setting changed that takes effect only at the next reset.
     pub restart_needed: bool,
+    /// The step timer interrupt's worst share of a tick period so far,
+    /// per mille of the core (its calls' cycles within one period, each
+    /// from its first instruction to its last); 0 where the tick runs the
+    /// step engine itself (QEMU: within `Status::worst_tick_cycles`).
+    pub step_isr_permille: u16,
 }
 
 /// Smallest feed override, percent.
@@ -455,14 +460,6 @@ pub struct Status {
     /// Ticks the step engine ran without a plan (the tick interrupt late by
     /// more than half a tick): the motion after ran a tick later.
     pub step_late_ticks: u32,
-    /// Worst step timer interrupt so far, core cycles from its first
-    /// instruction (the interrupt entry not counted); 0 where the tick
-    /// runs the step engine itself (QEMU: within `worst_tick_cycles`).
-    pub worst_step_isr_cycles: u32,
-    /// Most core cycles the step timer interrupt took within one tick
-    /// period so far: over (core clock / tick rate), its worst share of
-    /// the core; 0 as `worst_step_isr_cycles`.
-    pub worst_step_isr_tick_cycles: u32,
 }
 
 /// A command the velocity planner took (reported by [`DeviceMsg::Planned`]).
@@ -858,8 +855,6 @@ mod tests {
             step_lag_ticks: u32::MAX,
             step_lag_max_steps: u32::MAX,
             step_late_ticks: u32::MAX,
-            worst_step_isr_cycles: u32::MAX,
-            worst_step_isr_tick_cycles: u32::MAX,
             planned_points: u16::MAX,
             points_held: u16::MAX,
             override_percent: u16::MAX,
@@ -963,6 +958,7 @@ mod tests {
                 mist: true,
                 store: StoreResult::WriteFailed,
                 restart_needed: true,
+                step_isr_permille: u16::MAX,
             }),
             DeviceMsg::Applied {
                 seq: u32::MAX,
