@@ -794,7 +794,8 @@ impl<'a> StepEngine<'a> {
             self.plans.pop();
             first = first.wrapping_add(self.t.window);
         }
-        let plans = core::mem::replace(&mut self.plans, PlanRx::never());
+        let held = self.plans.handle();
+        let plans = core::mem::replace(&mut self.plans, held);
         let report = self.report;
         *self = Self::new(timing, plans, self.shared, start, first);
         self.report = report;

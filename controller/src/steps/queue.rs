@@ -103,14 +103,12 @@ impl PlanTx<'_> {
     }
 }
 
-/// A queue nothing is ever written to.
-static NEVER: PlanQueue = PlanQueue::new();
-
-impl PlanRx<'static> {
-    /// The reading end of a queue that stays empty: what an engine holds
-    /// for the moment it is rebuilt.
-    pub(crate) fn never() -> Self {
-        PlanRx { q: &NEVER }
+impl<'a> PlanRx<'a> {
+    /// A second handle on this reading end, held by an engine for the
+    /// moment it is rebuilt on the first (and then dropped: never two
+    /// readers at work).
+    pub(crate) fn handle(&self) -> PlanRx<'a> {
+        PlanRx { q: self.q }
     }
 }
 
