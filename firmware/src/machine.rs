@@ -54,10 +54,11 @@ impl MachineIo for Machine {
     }
 
     /// Taken only with nothing moving and the outputs off
-    /// (`controller::session`): the core stalls on the flash for up to
-    /// 2 s (an erase), the tick with it; the watchdog waits, and a change
-    /// of the e-stop pin meanwhile trips the alarm after it (the tick sees
-    /// only the level it then has).
+    /// (`controller::session`): the core stalls on the flash while a
+    /// sector is erased, the tick with it; the watchdog waits, and a
+    /// change of the e-stop pin meanwhile trips the alarm after it (the
+    /// tick sees only the level it then has; `firmware/README.md`, flash
+    /// settings).
     fn save(&mut self, c: &Config) -> StoreResult {
         let _ = board::estop_changed();
         self.watchdog.long(true);
