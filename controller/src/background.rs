@@ -6,8 +6,9 @@
 //!
 //! Each pass, in order:
 //! 1. settings changed over the link are taken (the planner rebuilt at
-//!    rest if its settings changed, `PlanEvent::Reset`), and written to
-//!    flash if asked (`DeviceMsg::Stored`);
+//!    rest if its settings changed, `PlanEvent::Reset`; changed step
+//!    settings kept for the tick, [`Background::take_step_settings`]),
+//!    and written to flash if asked (`DeviceMsg::Stored`);
 //! 2. in the alarm state ([`crate::alarm`]): once the tick has stopped, the
 //!    alarm is carried out: the scheduler's lookahead, the queued commands,
 //!    a machine command or homing cycle in progress are dropped, the
@@ -66,6 +67,7 @@ use crate::ring::{Consumer, Producer};
 use crate::session::{BackgroundInfo, DeviceLink, Taken};
 use crate::settings::{Plan, CMD_QUEUE, SETPOINT_RING};
 use crate::spindle::{MachineOutputs, Spindle};
+use crate::steps::StepSettings;
 
 /// Something worth a log line (the background cannot log by itself).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -180,6 +182,8 @@ pub struct Background<'a> {
     homing_done: bool,
     homed: u8,
     outbox: Deque<DeviceMsg, OUTBOX>,
+    /// Step settings changed, for the tick.
+    step_settings: Option<StepSettings>,
 }
 
 impl<'a> Background<'a> {
@@ -210,6 +214,7 @@ impl<'a> Background<'a> {
             homing_done: false,
             homed: 0,
             outbox: Deque::new(),
+            step_settings: None,
         })
     }
 
@@ -221,6 +226,12 @@ impl<'a> Background<'a> {
     /// The settings in force.
     pub fn config(&self) -> &Config {
         &self.config
+    }
+
+    /// Step settings changed over the link since the last call, for the
+    /// tick to apply ([`crate::guard::Guard::apply_step_settings`]).
+    pub fn take_step_settings(&mut self) -> Option<StepSettings> {
+        self.step_settings.take()
     }
 
     /// Fill the setpoint ring (before the first tick).
@@ -410,8 +421,19 @@ impl<'a> Background<'a> {
         else {
             return false;
         };
-        let (version, config) = c;
+        let (version, written) = c;
+        // The tick rate and the PWM frequency stay as started until a
+        // reset (their timers are set up at start-up).
+        let config = written.in_force(&self.config);
         let rebuild = config.motion_config() != self.config.motion_config();
+        if config.step_config() != self.config.step_config() {
+            match config.step_settings() {
+                Ok(s) => self.step_settings = Some(s),
+                // Valid with the tick rate written, not with the one
+                // running: at the reset.
+                Err(_) => link.lock(|l| l.restart_needed = true),
+            }
+        }
         self.config = config;
         self.config_version = version;
         self.latch.set_guard_config(guard_config(&config));
@@ -424,7 +446,7 @@ impl<'a> Background<'a> {
             }
         }
         if link.lock(|l| l.take_save()) {
-            let r = io.save(&config);
+            let r = io.save(&written);
             link.lock(|l| l.store = r);
             self.post(DeviceMsg::Stored(r));
         }

@@ -17,12 +17,15 @@
 //! Every value is checked against its range on arrival and on loading
 //! from flash, and the planner's settings as a whole against
 //! `MotionConfig::validate`: a refused value changes nothing. Settings
-//! take effect ([`Apply`]) at once, when the planner is next rebuilt at
-//! rest, or at the next reset (the step generator's and the tick's
-//! settings, whose hardware is set up at start-up). Writes are accepted
-//! only with the machine at rest and nothing queued (as Grbl refuses `$`
-//! writes outside Idle and Alarm), so "at rest" settings apply at once in
-//! practice.
+//! take effect ([`Apply`]) at once, at rest before the next motion (the
+//! planner's, rebuilt by the background; the step generator's, rebuilt by
+//! the tick once the last steps are out: [`crate::guard::Guard::apply_step_settings`]),
+//! or at the next reset (the tick rate and the spindle PWM frequency,
+//! whose timers are set up at start-up). Writes are accepted only with
+//! the machine at rest, nothing queued and the spindle and coolant off,
+//! or in an alarm once it is carried out (as Grbl refuses `$` writes
+//! outside Idle and Alarm; [`crate::session`]), so "at rest" settings
+//! apply at once in practice.
 //!
 //! With the defaults (from the build-time variables of
 //! [`crate::settings`]) the planner's settings are exactly
@@ -36,16 +39,21 @@ use crate::settings::{
     AXIS_ACCEL_MM_PER_S2, AXIS_SPEED_MM_PER_MIN, CHORD_NM, FEED_MAX_MM_PER_MIN, JERK_MM_PER_S3,
     STEP_CONFIG, STEP_TIMER_HZ, TANGENTIAL_SHARE_PERCENT, TICK_HZ,
 };
-use crate::steps::{AxisConfig, StepConfig, StepConfigError, StepsPerMm, Timing};
+use crate::steps::{AxisConfig, StepConfig, StepConfigError, StepSettings, StepsPerMm, Timing};
 
 /// When a changed setting takes effect.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Apply {
     /// At once.
     Now,
-    /// The planner is rebuilt from it at rest (before the next command).
+    /// At rest, before the next motion: the planner is rebuilt from it
+    /// (rates, accelerations, jerk, chord, feed), or the step generator
+    /// (steps/mm, pulse, polarity, DIR setup) once its last steps are
+    /// out.
     AtRest,
-    /// At the next reset (stored now).
+    /// At the next reset (stored now): the tick rate (the tick timer, the
+    /// planner's tick and the step engine's window are set up from it at
+    /// start-up) and the spindle PWM frequency.
     Restart,
 }
 
@@ -152,7 +160,7 @@ pub const SETTINGS: [SettingInfo; COUNT] = [
         "µs",
         3,
         (100, 20_000),
-        Apply::Restart,
+        Apply::AtRest,
     ),
     s(
         2,
@@ -160,7 +168,7 @@ pub const SETTINGS: [SettingInfo; COUNT] = [
         "mask",
         0,
         (0, 7),
-        Apply::Restart,
+        Apply::AtRest,
     ),
     s(
         3,
@@ -168,7 +176,7 @@ pub const SETTINGS: [SettingInfo; COUNT] = [
         "mask",
         0,
         (0, 7),
-        Apply::Restart,
+        Apply::AtRest,
     ),
     s(
         4,
@@ -299,9 +307,9 @@ pub const SETTINGS: [SettingInfo; COUNT] = [
         (0, 7),
         Apply::Now,
     ),
-    s(100, "X steps/mm", "steps/mm", 3, STEPS, Apply::Restart),
-    s(101, "Y steps/mm", "steps/mm", 3, STEPS, Apply::Restart),
-    s(102, "Z steps/mm", "steps/mm", 3, STEPS, Apply::Restart),
+    s(100, "X steps/mm", "steps/mm", 3, STEPS, Apply::AtRest),
+    s(101, "Y steps/mm", "steps/mm", 3, STEPS, Apply::AtRest),
+    s(102, "Z steps/mm", "steps/mm", 3, STEPS, Apply::AtRest),
     s(110, "X max rate", "mm/min", 0, RATE, Apply::AtRest),
     s(111, "Y max rate", "mm/min", 0, RATE, Apply::AtRest),
     s(112, "Z max rate", "mm/min", 0, RATE, Apply::AtRest),
@@ -343,7 +351,7 @@ pub const SETTINGS: [SettingInfo; COUNT] = [
         "µs",
         3,
         (100, 20_000),
-        Apply::Restart,
+        Apply::AtRest,
     ),
     s(
         206,
@@ -507,6 +515,19 @@ impl Config {
         Ok(info)
     }
 
+    /// These settings with those that apply only at a reset
+    /// ([`Apply::Restart`]) as in `running` (the settings the controller
+    /// started with): the settings in force until the next reset.
+    pub fn in_force(&self, running: &Config) -> Config {
+        let mut c = *self;
+        for ((v, r), s) in c.values.iter_mut().zip(running.values).zip(SETTINGS) {
+            if s.apply == Apply::Restart {
+                *v = r;
+            }
+        }
+        c
+    }
+
     /// The cross-checks: the planner takes its settings, the step
     /// generator its settings with the tick rate, the spindle's range is
     /// not empty.
@@ -595,6 +616,15 @@ impl Config {
     /// timer counts, a tick too short for the pulse and setup times).
     pub fn step_timing(&self) -> Result<Timing, StepConfigError> {
         self.step_config().timing(STEP_TIMER_HZ, self.tick_hz())
+    }
+
+    /// [`Self::step_timing`] with the steps/mm: what the step generator's
+    /// two halves take.
+    pub fn step_settings(&self) -> Result<StepSettings, StepConfigError> {
+        Ok(StepSettings {
+            timing: self.step_timing()?,
+            steps_per_mm: [0, 1, 2].map(|a| self.steps_per_mm(a)),
+        })
     }
 
     /// Axis `a`'s travel, I32F32 bits `(min, max)`: Grbl's machine space,

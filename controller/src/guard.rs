@@ -25,7 +25,9 @@
 //! 4. the driver-enable output: on, except in `Alarm`.
 //!
 //! After the executor, [`Guard::check_lag`] trips [`AlarmCode::StepLag`]
-//! when the step output reports it fell behind.
+//! when the step output reports it fell behind, and
+//! [`Guard::apply_step_settings`] hands step settings written at rest to
+//! the step output once no step is on its way.
 
 use fuzzy_core::planner::MotionState;
 use fuzzy_core::units::Point3Mm;
@@ -36,7 +38,7 @@ use crate::planning::Setpoint;
 use crate::ring::Consumer;
 use crate::settings::SETPOINT_RING;
 use crate::stepper::StepOutput;
-use crate::steps::StepReport;
+use crate::steps::{StepReport, StepSettings};
 use crate::tick::TickExecutor;
 
 /// Step outputs that take machine coordinates minus an offset (the step
@@ -85,6 +87,11 @@ impl<O: StepOutput> StepOutput for Shifted<'_, O> {
         let p = self.inner_of(at);
         let stopped = self.inner.stop(p)?;
         Some(self.outer_of(stopped))
+    }
+
+    fn reconfigure(&mut self, s: &StepSettings, at: Point3Mm) -> bool {
+        let p = self.inner_of(at);
+        self.inner.reconfigure(s, p)
     }
 }
 
@@ -239,6 +246,38 @@ impl Guard {
             self.lag_seen = steps.lag_ticks;
             latch.trip(AlarmCode::StepLag);
         }
+    }
+
+    /// After the executor: step settings written at rest (`pending`, from
+    /// the background) to the step output, once the tool is at rest in
+    /// [`Phase::Run`] and no step is on its way
+    /// ([`StepOutput::reconfigure`]); until then they stay pending (the
+    /// session takes a write only at rest or in a carried-out alarm, and
+    /// the ring holds `SETPOINT_RING − 1` ticks of rest ahead of any new
+    /// motion, more than the step pipeline's depth). Returns whether they
+    /// were taken now (`pending` is then empty).
+    pub fn apply_step_settings<O: StepOutput>(
+        &mut self,
+        pending: &mut Option<StepSettings>,
+        latch: &Latch,
+        exec: &TickExecutor,
+        out: &mut O,
+    ) -> bool {
+        let Some(s) = pending else {
+            return false;
+        };
+        if latch.phase() != Phase::Run || exec.now.moving {
+            return false;
+        }
+        let mut out = Shifted {
+            inner: out,
+            offset: self.offset,
+        };
+        let taken = out.reconfigure(s, exec.now.pos);
+        if taken {
+            *pending = None;
+        }
+        taken
     }
 }
 

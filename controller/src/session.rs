@@ -49,9 +49,14 @@
 //!   (`OutOfTravel`, a batch all or nothing); `Machine` commands (spindle,
 //!   coolant) are sequenced and queued like points;
 //! - settings (`GetSetting`, `SetSetting`, [`crate::config`]): a write is
-//!   taken only at rest with nothing queued or in an alarm (`Busy`), only
-//!   in range (`OutOfRange`, `UnknownSetting`: nothing changed), and the
-//!   background applies and stores it; `Home` only at rest (`Busy`) with
+//!   taken only with nothing moving: at rest with nothing queued, or in an
+//!   alarm the background has carried out (the tick stopped, everything
+//!   queued dropped; `Busy` otherwise), and with the spindle and coolant
+//!   off (`OutputsOn`), because the background stores it in flash next,
+//!   and a sector erase stalls the core, the tick and its e-stop input
+//!   with it (`firmware/README.md`, flash settings); only in range
+//!   (`OutOfRange`, `UnknownSetting`: nothing changed); the background
+//!   applies and stores it; `Home` only at rest (`Busy`) with
 //!   homing enabled (`Rejected`); `MachineQuery` is answered at once.
 //!
 //! Sequence numbers and the queue: commands leave the queue in order, so
@@ -280,7 +285,8 @@ pub struct DeviceLink {
     pub config: Config,
     /// Counts the changes of `config` (the background follows it).
     pub config_version: u32,
-    /// A changed setting applies only after a reset.
+    /// A changed setting applies only after a reset (the tick rate, the
+    /// spindle PWM frequency).
     pub restart_needed: bool,
     /// The settings store: how it was read, or the last write.
     pub store: StoreResult,
@@ -390,6 +396,24 @@ impl DeviceLink {
         self.queued() == 0 && self.info.idle && !self.abort && !exec.now.moving && !self.info.homing
     }
 
+    /// Whether settings may be written now (module docs): nothing moves
+    /// (at rest with nothing queued, or a carried-out alarm) and the
+    /// spindle and coolant are off.
+    fn writable(&self, exec: &TickExecutor) -> Result<(), ErrorCode> {
+        let still = if self.latch.phase() == Phase::Alarm {
+            self.alarm_handled && !exec.now.moving
+        } else {
+            self.idle(exec)
+        };
+        if !still {
+            return Err(ErrorCode::Busy);
+        }
+        if self.info.spindle.any_on() {
+            return Err(ErrorCode::OutputsOn);
+        }
+        Ok(())
+    }
+
     /// Whether path commands are refused now, and why.
     fn path_refusal(&self) -> Option<ErrorCode> {
         // After an unlock of a handled alarm, path commands wait in the
@@ -440,8 +464,8 @@ impl DeviceLink {
         next
     }
 
-    /// The machine status reply.
-    pub fn machine_status(&self) -> MachineStatus {
+    /// The machine status reply, with the tick's state `exec`.
+    pub fn machine_status(&self, exec: &TickExecutor) -> MachineStatus {
         let i = &self.info;
         MachineStatus {
             alarm: self.latch.alarm(),
@@ -455,6 +479,7 @@ impl DeviceLink {
             mist: i.spindle.mist,
             store: self.store,
             restart_needed: self.restart_needed,
+            step_isr_permille: exec.worst_step_isr_permille,
         }
     }
 
@@ -475,7 +500,7 @@ impl DeviceLink {
         let reply = match frame.and_then(|m| self.handle(m, queue, &mut exec)) {
             Ok(Reply::Ack) => self.session.ack(),
             Ok(Reply::Status) => DeviceMsg::Status(self.status(&exec())),
-            Ok(Reply::Machine) => DeviceMsg::Machine(self.machine_status()),
+            Ok(Reply::Machine) => DeviceMsg::Machine(self.machine_status(&exec())),
             Ok(Reply::Setting(id, value)) => DeviceMsg::Setting { id, value },
             Err(code) => {
                 self.session.bad_frames = self.session.bad_frames.wrapping_add(1);
@@ -557,10 +582,7 @@ impl DeviceLink {
                 return Ok(Reply::Setting(id, v));
             }
             HostMsg::SetSetting { id, value } => {
-                let alarm = self.latch.phase() == Phase::Alarm;
-                if !alarm && !self.idle(&exec()) {
-                    return Err(ErrorCode::Busy);
-                }
+                self.writable(&exec())?;
                 let info = self.config.set(id, value).map_err(|e| match e {
                     SettingError::Unknown => ErrorCode::UnknownSetting,
                     SettingError::OutOfRange => ErrorCode::OutOfRange,

@@ -8,9 +8,11 @@
 //! against them (a firmware built with other variables than the tests
 //! fails that check instead of comparing different machines).
 
+use core::mem::MaybeUninit;
 use fixed::types::{I16F16, I32F32};
 use fuzzy_core::lin2021::Lin2021Compact;
-use fuzzy_core::planner::{Motion, MotionConfig};
+
+use fuzzy_core::planner::{ConfigError, Motion, MotionConfig};
 use fuzzy_core::scheduler::{Scheduler, SchedulerConfig};
 use fuzzy_core::units::FeedMmPerMin;
 
@@ -193,6 +195,13 @@ pub type Sched = Scheduler<&'static Lin2021Compact, WS, AVG, SCHED_CAP>;
 /// The velocity planner as the controller runs it.
 pub type Plan = Motion<PLANNER_POINTS>;
 
+/// The planner with settings `c`, built in `slot` (a `static` in the
+/// firmware: the planner is 6.5 KB, so it is built once on the caller's
+/// stack and moved once, not copied again into its place).
+pub fn plan_in(slot: &mut MaybeUninit<Plan>, c: MotionConfig) -> Result<&mut Plan, ConfigError> {
+    Ok(slot.write(Plan::new(c)?))
+}
+
 /// Link command queue (USART task → scheduler), slots; the credit window
 /// is its free room (`ring::Ring<_, N>` holds `N − 1`). 96 points are six
 /// full `Points` frames in flight: the link stays busy across a USB-serial
@@ -242,6 +251,27 @@ const fn clamp(v: u32, lo: u32, hi: u32) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_planner_is_built_in_its_slot_with_the_settings_given() {
+        let mut slot = Box::new(MaybeUninit::<Plan>::uninit());
+        let c = MotionConfig {
+            axis_accel_max_mm_s2: [500; 3],
+            ..MOTION_CONFIG
+        };
+        let plan = plan_in(&mut slot, c).expect("valid settings");
+        let direct = Plan::new(c).unwrap().accel_limit_mm_s2();
+        assert_eq!(plan.accel_limit_mm_s2(), direct);
+        assert_ne!(
+            direct,
+            Plan::new(MOTION_CONFIG).unwrap().accel_limit_mm_s2()
+        );
+        let bad = MotionConfig {
+            feed_max: FeedMmPerMin::ZERO,
+            ..MOTION_CONFIG
+        };
+        assert!(plan_in(&mut slot, bad).is_err());
+    }
 
     #[test]
     fn decimal_steps_per_mm() {

@@ -27,7 +27,7 @@ use crate::session::DeviceLink;
 use crate::settings::{Plan, CMD_QUEUE, SETPOINT_RING};
 use crate::spindle::MachineOutputs;
 use crate::stepper::{first_window, SoftSteps, StepOutput, StepPins, StepQueue};
-use crate::steps::{Edges, PlanQueue, Planner, StepEngine, StepReport, StepShared};
+use crate::steps::{Edges, PlanQueue, Planner, StepEngine, StepReport, StepSettings, StepShared};
 use crate::store::{self, MemFlash, Store};
 use crate::tick::TickExecutor;
 
@@ -55,6 +55,11 @@ impl StepPins for CountPins {
             }
         }
     }
+
+    fn set_polarity(&mut self, invert_step: u8, invert_dir: u8) {
+        self.invert_step = invert_step;
+        self.invert_dir = invert_dir;
+    }
 }
 
 /// The simulated axes: the positions the tick sent (the step output's
@@ -69,12 +74,12 @@ impl Recorded {
     /// The step generator with `config`'s step settings, at the origin
     /// (its queue and figures leaked: a few hundred bytes).
     fn new(config: &Config) -> Result<Self, StartError> {
-        let timing = config.step_timing().map_err(StartError::StepSettings)?;
+        let s = config.step_settings().map_err(StartError::StepSettings)?;
+        let timing = s.timing;
         let plans: &'static mut PlanQueue = Box::leak(Box::default());
         let shared: &'static StepShared = Box::leak(Box::default());
         let (tx, rx) = plans.split();
-        let spm = [0, 1, 2].map(|a| config.steps_per_mm(a));
-        let planner = Planner::new(spm, &timing, Point3Mm::ORIGIN);
+        let planner = Planner::new(s.steps_per_mm, &timing, Point3Mm::ORIGIN);
         let start = planner.position();
         let engine = StepEngine::new(timing, rx, shared, start, first_window(0, timing.window));
         let pins = CountPins {
@@ -113,6 +118,9 @@ impl StepOutput for Recorded {
     }
     fn stop(&mut self, at: Point3Mm) -> Option<Point3Mm> {
         self.steps.stop(at)
+    }
+    fn reconfigure(&mut self, s: &StepSettings, at: Point3Mm) -> bool {
+        self.steps.reconfigure(s, at)
     }
 }
 
@@ -189,6 +197,8 @@ pub struct VirtualDevice {
     pub switches: Vec<SimSwitch>,
     /// The drivers were enabled at the last tick.
     pub drivers_enabled: bool,
+    /// Step settings from the background, for the tick.
+    step_settings: Option<StepSettings>,
 }
 
 impl VirtualDevice {
@@ -239,6 +249,7 @@ impl VirtualDevice {
             estop: false,
             switches: Vec::new(),
             drivers_enabled: true,
+            step_settings: None,
         })
     }
 
@@ -266,7 +277,7 @@ impl VirtualDevice {
         let stack = 0;
         let now_us = self.periods.wrapping_mul(self.tick_us);
         self.machine.sent = self.axes.positions.len();
-        self.background.step(
+        let busy = self.background.step(
             &mut rtic_core::Exclusive(&mut self.link),
             &mut self.cmd_rx,
             &mut self.sp_tx,
@@ -274,7 +285,16 @@ impl VirtualDevice {
             now_us,
             stack,
             |n| notices.push(n),
-        )
+        );
+        if let Some(s) = self.background.take_step_settings() {
+            self.step_settings = Some(s);
+        }
+        busy
+    }
+
+    /// Step settings the tick has yet to apply.
+    pub fn step_settings_pending(&self) -> bool {
+        self.step_settings.is_some()
     }
 
     /// Each axis's position in steps (the step generator's count).
@@ -301,6 +321,12 @@ impl VirtualDevice {
             self.latch,
             &mut self.exec,
             &mut self.sp_rx,
+            &mut self.axes,
+        );
+        self.guard.apply_step_settings(
+            &mut self.step_settings,
+            self.latch,
+            &self.exec,
             &mut self.axes,
         );
     }

@@ -95,6 +95,11 @@ pub struct Spindle {
 }
 
 impl Spindle {
+    /// Whether the spindle or a coolant output is on.
+    pub fn any_on(&self) -> bool {
+        self.dir != SpindleDir::Off || self.flood || self.mist
+    }
+
     /// Apply `cmd`; whether the motion after it waits the spin-up delay
     /// (the spindle started or changed direction).
     pub fn apply(&mut self, cmd: MachineCmd) -> bool {

@@ -13,7 +13,14 @@
 use embedded_hal::digital::OutputPin;
 use fuzzy_core::units::Point3Mm;
 
-use crate::steps::{Edges, PlanTx, Planner, StepEngine, StepReport, StepShared, TickPlan};
+use crate::steps::{
+    Edges, PlanTx, Planner, StepEngine, StepReport, StepSettings, StepShared, TickPlan,
+};
+
+/// Plans without a step in a row after which the engine has emitted every
+/// step planned before them (it runs a plan 1.5 to 2.5 ticks after the
+/// tick that queued it, [`crate::steps`]).
+pub const SETTLE_TICKS: u8 = 3;
 
 /// Something that takes a position setpoint per tick.
 pub trait StepOutput {
@@ -34,12 +41,27 @@ pub trait StepOutput {
     fn stop(&mut self, at: Point3Mm) -> Option<Point3Mm> {
         Some(at)
     }
+    /// New step settings `s` at rest at `at` (the commanded position): the
+    /// steps from the next tick on follow them. Returns `false`, nothing
+    /// changed, while steps may still be on their way (the last motion's
+    /// not all emitted, steps owed, a stop in force): call again at the
+    /// next tick. An output without a step generator takes them at once.
+    fn reconfigure(&mut self, s: &StepSettings, at: Point3Mm) -> bool {
+        let _ = (s, at);
+        true
+    }
 }
 
 /// Pins that take a batch of [`Edges`] at once.
 pub trait StepPins {
     /// Drive the pins in `e`.
     fn write(&mut self, e: Edges);
+    /// The step and direction polarity changed (bit per axis, as
+    /// [`crate::steps::Timing`]'s), before the new rest levels are
+    /// written: for pins that read their levels back (the simulator's).
+    fn set_polarity(&mut self, invert_step: u8, invert_dir: u8) {
+        let _ = (invert_step, invert_dir);
+    }
 }
 
 /// Step and direction pins of three axes as `embedded-hal` pins, written
@@ -87,6 +109,8 @@ pub struct StepQueue<'a> {
     halting: Option<u32>,
     /// Where the steps stopped, mm (once the engine said).
     halted_at: Option<Point3Mm>,
+    /// Plans without a step in a row (up to [`SETTLE_TICKS`]).
+    still: u8,
     kick: fn(),
 }
 
@@ -101,6 +125,7 @@ impl<'a> StepQueue<'a> {
             overruns: 0,
             halting: None,
             halted_at: None,
+            still: 0,
             kick: || {},
         }
     }
@@ -121,7 +146,18 @@ impl<'a> StepQueue<'a> {
         }
     }
 
+    /// Where the last plan ended, whole steps per axis (where an engine
+    /// rebuilt with new settings starts, [`StepOutput::reconfigure`]).
+    pub fn position(&self) -> [i64; 3] {
+        self.planner.position()
+    }
+
     fn send(&mut self, plan: TickPlan) {
+        self.still = if plan.axes.iter().all(|a| a.steps == 0) {
+            self.still.saturating_add(1).min(SETTLE_TICKS)
+        } else {
+            0
+        };
         if !self.plans.push(&plan) {
             // The engine takes one a tick; a full queue means it stopped.
             // The next plan starts where this one ended, so the engine
@@ -167,6 +203,17 @@ impl StepOutput for StepQueue<'_> {
             plan_overruns: self.overruns,
             ..self.shared.read()
         }
+    }
+
+    /// The tick's half: the planner anew (the caller rebuilds the engine
+    /// at [`StepQueue::position`] before the next plan runs).
+    fn reconfigure(&mut self, s: &StepSettings, at: Point3Mm) -> bool {
+        let settled = self.still >= SETTLE_TICKS && self.shared.read().lag_now_steps == 0;
+        if self.halting.is_some() || !settled {
+            return false;
+        }
+        self.planner = Planner::new(s.steps_per_mm, &s.timing, at);
+        true
     }
 }
 
@@ -238,6 +285,17 @@ impl<P: StepPins> StepOutput for SoftSteps<'_, P> {
         self.run();
         self.queue.stop(at)
     }
+
+    fn reconfigure(&mut self, s: &StepSettings, at: Point3Mm) -> bool {
+        if !self.queue.reconfigure(s, at) {
+            return false;
+        }
+        self.engine.reconfigure(s.timing, self.queue.position());
+        self.pins
+            .set_polarity(s.timing.invert_step, s.timing.invert_dir);
+        self.pins.write(self.engine.idle_edges());
+        true
+    }
 }
 
 /// The first window of an engine that a tick at timer count `tick` will
@@ -249,7 +307,7 @@ pub const fn first_window(tick: u32, window: u32) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::steps::{PlanQueue, StepConfig, StepsPerMm, Timing};
+    use crate::steps::{PlanQueue, StepConfig, StepSettings, StepsPerMm, Timing};
     use core::convert::Infallible;
     use std::cell::RefCell;
     use std::rc::Rc;
@@ -352,6 +410,36 @@ mod tests {
         for _ in 0..3 {
             s.hold();
         }
+    }
+
+    #[test]
+    fn new_step_settings_wait_for_the_last_steps_then_apply_from_there() {
+        let log = Log::default();
+        let mut rig = Rig::new([100; 3]);
+        let s = StepSettings {
+            timing: rig.timing,
+            steps_per_mm: [80, 100, 100].map(StepsPerMm::from_int),
+        };
+        let mut a = rig.soft(&log);
+        let at = mm(1.0, 0.0, 0.0);
+        a.update(at);
+        for _ in 0..SETTLE_TICKS - 1 {
+            assert!(!a.reconfigure(&s, at), "steps on their way");
+            a.hold();
+        }
+        assert!(!a.reconfigure(&s, at));
+        a.hold();
+        assert!(a.reconfigure(&s, at), "settled");
+        assert_eq!(replay(&log), [100, 0, 0], "every step of the move out");
+        assert_eq!(a.engine().position(), [80, 0, 0], "1 mm at 80 steps/mm");
+        for i in 1..=4 {
+            a.update(mm(1.0 + 0.25 * i as f64, 0.0, 0.0));
+        }
+        settle(&mut a);
+        assert_eq!(replay(&log), [180, 0, 0], "the next mm in 80 steps");
+        assert_eq!(a.engine().position(), [160, 0, 0]);
+        let r = a.report();
+        assert_eq!((r.lag_ticks, r.late_windows), (0, 0));
     }
 
     #[test]

@@ -38,6 +38,10 @@ pub struct TickExecutor {
     /// Worst tick interrupt so far, cycles (set by the caller, who has the
     /// clock).
     pub worst_cycles: u32,
+    /// The step timer interrupt's worst share of a tick period, per mille
+    /// (set by the caller, who has the clock; 0 where the tick runs the
+    /// step engine).
+    pub worst_step_isr_permille: u16,
     /// The step generator's figures (lag, late plans), as of this tick.
     pub steps: StepReport,
     /// At rest at a path's start or end: the next motion starts a new count.
@@ -53,6 +57,7 @@ impl TickExecutor {
             empty_ticks: 0,
             moving_ticks: 0,
             worst_cycles: 0,
+            worst_step_isr_permille: 0,
             steps: StepReport::NONE,
             rested: true,
         }

@@ -571,8 +571,8 @@ fn settings_round_trip_over_the_link_and_through_a_reset() {
         }
     )));
     assert!(
-        b.machine().restart_needed,
-        "steps/mm apply at the next reset"
+        !b.machine().restart_needed,
+        "steps/mm apply at rest, without a reset"
     );
     // The planner took the new acceleration: 800 mm/s² per axis, half of
     // it tangential.
@@ -751,4 +751,201 @@ fn a_watchdog_reset_starts_in_the_alarm_state() {
     b.path(&[[1.0, 0.0, 0.0]]);
     let goal = [mm(1.0), 0, 0];
     b.run_until(20_000, |s| s.motion == Motion::Idle && s.pos_mm == goal);
+}
+
+/// Step settings written at rest apply to the next motion without a reset:
+/// X at 80 steps/mm instead of 100 and its step pin inverted, the second
+/// millimetre takes 80 steps on the pins (read with the new polarity),
+/// no step lost, lagging or late in the change, and no reset asked for.
+#[test]
+fn step_settings_written_at_rest_apply_to_the_next_motion() {
+    let mut b = Bench::new();
+    let goal = |x: f64| move |s: &Status| s.motion == Motion::Idle && s.pos_mm == [mm(x), 0, 0];
+    b.path(&line_x(0.0, 1.0, 0.5));
+    b.run_until(20_000, goal(1.0));
+    b.run(10);
+    assert_eq!(b.dev.axes.pin_steps()[0], 100, "1 mm at 100 steps/mm");
+    assert_eq!(
+        b.set(100, 80_000),
+        DeviceMsg::Setting {
+            id: 100,
+            value: 80_000
+        }
+    );
+    assert_eq!(b.set(2, 0b001), DeviceMsg::Setting { id: 2, value: 1 });
+    b.run(10);
+    assert!(!b.dev.step_settings_pending(), "applied at rest");
+    assert!(!b.machine().restart_needed);
+    assert_eq!(b.dev.steps()[0], 80, "1 mm is 80 steps now");
+    b.resync();
+    b.path(&line_x(1.0, 2.0, 0.5));
+    b.run_until(20_000, goal(2.0));
+    b.run(10);
+    assert_eq!(b.dev.axes.pin_steps()[0], 180, "the second mm in 80 steps");
+    assert_eq!(b.dev.steps()[0], 160);
+    let s = b.status();
+    assert_eq!(
+        (s.step_lag_ticks, s.step_late_ticks),
+        (0, 0),
+        "nothing carried or late"
+    );
+    assert!(b.alarms().is_empty());
+}
+
+/// A setting written while the tool moves is refused (`Busy`) and changes
+/// nothing: the path runs at the old steps/mm and the value reads back
+/// unchanged; with the spindle on, a write at rest is refused
+/// (`OutputsOn`: a flash erase would stall the controller with the
+/// spindle running) until M5.
+#[test]
+fn settings_written_while_moving_or_with_the_spindle_on_are_refused() {
+    let mut b = Bench::new();
+    b.path(&line_x(0.0, 20.0, 0.5));
+    b.run_until(20_000, |s| feed(s) >= 2997.0);
+    for (id, value) in [(100, 80_000), (0, 4_000), (120, 800)] {
+        assert!(
+            matches!(
+                b.set(id, value),
+                DeviceMsg::Error {
+                    code: ErrorCode::Busy,
+                    ..
+                }
+            ),
+            "${id} while moving"
+        );
+    }
+    b.run_until(40_000, |s| {
+        s.motion == Motion::Idle && s.pos_mm == [mm(20.0), 0, 0]
+    });
+    b.run(10);
+    assert!(!b.dev.step_settings_pending());
+    assert_eq!(b.dev.axes.pin_steps()[0], 2000, "20 mm at 100 steps/mm");
+    assert_eq!(
+        b.ask(&HostMsg::GetSetting { id: 100 }),
+        vec![DeviceMsg::Setting {
+            id: 100,
+            value: 100_000
+        }]
+    );
+    assert!(!b
+        .inbox
+        .iter()
+        .any(|m| matches!(m, DeviceMsg::Stored(StoreResult::Saved))));
+
+    b.set(207, 0);
+    b.resync();
+    b.client.start_path(3000i64 << 32, 60i64 << 32);
+    b.client.machine(MachineCmd::Spindle {
+        dir: SpindleDir::Cw,
+        speed_rpm: 1000,
+    });
+    b.client.machine(MachineCmd::Coolant {
+        flood: false,
+        mist: true,
+    });
+    b.client.end_path();
+    b.run(100);
+    assert!(b.dev.machine.outputs.last().unwrap().1.spindle_on);
+    assert!(matches!(
+        b.set(120, 800),
+        DeviceMsg::Error {
+            code: ErrorCode::OutputsOn,
+            ..
+        }
+    ));
+    b.resync();
+    b.client.start_path(3000i64 << 32, 60i64 << 32);
+    b.client.machine(MachineCmd::Spindle {
+        dir: SpindleDir::Off,
+        speed_rpm: 0,
+    });
+    b.client.end_path();
+    b.run(100);
+    assert!(
+        matches!(
+            b.set(120, 800),
+            DeviceMsg::Error {
+                code: ErrorCode::OutputsOn,
+                ..
+            }
+        ),
+        "the mist coolant is still on"
+    );
+    b.resync();
+    b.client.start_path(3000i64 << 32, 60i64 << 32);
+    b.client.machine(MachineCmd::Coolant {
+        flood: false,
+        mist: false,
+    });
+    b.client.end_path();
+    b.run(100);
+    assert_eq!(
+        b.set(120, 800),
+        DeviceMsg::Setting {
+            id: 120,
+            value: 800
+        }
+    );
+}
+
+/// In an alarm a write waits for the alarm to be carried out (the tick
+/// stopped, the spindle off: `Busy` before), then is taken; step settings
+/// written in the alarm apply after the unlock, before the next motion.
+#[test]
+fn settings_in_an_alarm_are_taken_once_it_is_carried_out() {
+    let mut b = Bench::new();
+    b.path(&line_x(0.0, 100.0, 0.5));
+    b.run_until(20_000, |s| feed(s) >= 2997.0);
+    b.send(&HostMsg::EStop);
+    assert!(matches!(
+        b.set(100, 50_000),
+        DeviceMsg::Error {
+            code: ErrorCode::Busy,
+            ..
+        }
+    ));
+    b.run(5);
+    assert_eq!(b.alarms().len(), 1);
+    assert_eq!(
+        b.set(100, 50_000),
+        DeviceMsg::Setting {
+            id: 100,
+            value: 50_000
+        }
+    );
+    b.run(5);
+    assert!(b.dev.step_settings_pending(), "not in the alarm");
+    b.send(&HostMsg::Unlock);
+    b.run(10);
+    assert!(!b.dev.step_settings_pending(), "after the unlock, at rest");
+    let from = x_of(*b.dev.axes.positions.last().unwrap());
+    let pins = b.dev.axes.pin_steps()[0];
+    b.resync();
+    b.path(&line_x(from, from - 2.0, 0.5));
+    let goal = [mm(from - 2.0), 0, 0];
+    b.run_until(40_000, |s| s.motion == Motion::Idle && s.pos_mm == goal);
+    b.run(10);
+    assert_eq!(pins - b.dev.axes.pin_steps()[0], 100, "2 mm at 50 steps/mm");
+}
+
+/// The tick rate applies at the next reset: stored and reported as
+/// needing one, while the planner and the tick keep the rate they
+/// started with.
+#[test]
+fn the_tick_rate_applies_at_the_next_reset() {
+    let mut b = Bench::new();
+    b.set(200, 2000);
+    b.run(5);
+    assert!(b.machine().restart_needed);
+    assert_eq!(b.dev.background().config().tick_hz(), 1000);
+    assert_eq!(
+        b.ask(&HostMsg::GetSetting { id: 200 }),
+        vec![DeviceMsg::Setting {
+            id: 200,
+            value: 2000
+        }]
+    );
+    let flash = b.dev.machine.flash.clone();
+    let c = Bench::on(VirtualDevice::with_flash(flash).unwrap());
+    assert_eq!(c.client.hello().unwrap().tick_hz, 2000);
 }

@@ -216,7 +216,7 @@ pub fn init(_dp: pac::Peripherals) -> Board {
     // GPIOA-E; TIM2, TIM3; USART1.
     reg::modify(reg::RCC + 0x30, |r| r | 0x1F);
     reg::modify(reg::RCC + 0x40, |r| r | 1 << 1 | 1);
-    reg::modify(reg::RCC + 0x44, |r| r | 1 << 4);
+    reg::modify(reg::RCC + 0x44, |r| r | 1 << 14 | 1 << 4);
     // The reset's cause (IWDGRSTF), then clear the flags (RMVF).
     let csr = reg::read(reg::RCC + 0x74);
     reg::modify(reg::RCC + 0x74, |r| r | 1 << 24);
@@ -245,6 +245,9 @@ pub fn init(_dp: pac::Peripherals) -> Board {
     let inputs = MAP.limits.iter().flatten().chain([&MAP.estop]);
     for p in inputs.flatten() {
         input(*p);
+    }
+    if let Some(p) = MAP.estop {
+        estop_latch(p);
     }
     if let Some(pwm) = MAP.spindle_pwm {
         output(pwm.pin, false);
@@ -445,6 +448,40 @@ impl StepPins for StepGpio {
             }
         }
     }
+}
+
+/// EXTI (RM0090 §12.3) and SYSCFG (§9.2) register blocks.
+const EXTI: u32 = 0x4001_3C00;
+const SYSCFG: u32 = 0x4001_3800;
+
+/// The e-stop pin's line of EXTI (line `n` for pin `n`, its port chosen
+/// in SYSCFG_EXTICR), on both edges, unmasked in EXTI (so that the
+/// pending bit is set) but never enabled in the NVIC: no interrupt, a
+/// latch of any change of the pin, kept while the core stalls on a flash
+/// erase ([`estop_changed`]).
+fn estop_latch(p: PinId) {
+    let line = p.n as u32 & 15;
+    let cr = SYSCFG + 0x08 + 4 * (line / 4);
+    let shift = 4 * (line % 4);
+    reg::modify(cr, |r| {
+        (r & !(0xF << shift)) | (p.port as u32 & 0xF) << shift
+    });
+    reg::modify(EXTI + 0x08, |r| r | 1 << line);
+    reg::modify(EXTI + 0x0C, |r| r | 1 << line);
+    reg::modify(EXTI, |r| r | 1 << line);
+    reg::write(EXTI + 0x14, 1 << line);
+}
+
+/// Whether the e-stop pin changed since the last call (its EXTI pending
+/// bit, then cleared); `false` on a map without an e-stop.
+pub fn estop_changed() -> bool {
+    let Some(p) = MAP.estop else {
+        return false;
+    };
+    let bit = 1u32 << (p.n as u32 & 15);
+    let pending = reg::read(EXTI + 0x14) & bit != 0;
+    reg::write(EXTI + 0x14, bit);
+    pending
 }
 
 /// The limit switches and the e-stop.

@@ -6,6 +6,11 @@
 //! |---|---|
 //! | [`board`] | the chip: clocks, USART1, GPIO, PWM timer, flash, watchdog |
 //! | [`boards`] | one pin map per board (QEMU, STM32F4-Discovery, BTT SKR 2) |
+//! | [`start`] | start-up: settings, queues, planner, background, step output, tick timer |
+//! | [`tick`] | the tick interrupt's work |
+//! | [`link_port`] | the link's port; the receive interrupt's work, transmit |
+//! | [`idle`] | the background loop |
+//! | [`machine`] | spindle, coolant and the settings store as the background drives them |
 //! | [`measure`] | SysTick as tick timer and cycle counter, stack high-water mark |
 //! | [`step_output`] | the step engine wired to the step timer (its interrupt), or run by the tick (QEMU) |
 //! | `usb` | (feature `usb`) the link as a USB CDC-ACM serial port on OTG FS |
@@ -14,8 +19,13 @@
 
 pub mod board;
 pub mod boards;
+pub mod idle;
+pub mod link_port;
+pub mod machine;
 pub mod measure;
+pub mod start;
 pub mod step_output;
+pub mod tick;
 #[cfg(feature = "usb")]
 pub mod usb;
 
@@ -24,14 +34,7 @@ mod logger;
 #[cfg(all(feature = "board", not(feature = "qemu")))]
 use defmt_rtt as _;
 
-/// Where the link's replies go: USART1, or with feature `usb` the USB
-/// serial port (which also brings the bytes in).
-#[cfg(not(feature = "usb"))]
-pub type LinkPort = board::UsartTx;
-/// Where the link's replies go: USART1, or with feature `usb` the USB
-/// serial port (which also brings the bytes in).
-#[cfg(feature = "usb")]
-pub type LinkPort = usb::UsbPort;
+pub use link_port::LinkPort;
 
 defmt::timestamp!("{=u32:us}", measure::uptime_us());
 

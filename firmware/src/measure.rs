@@ -59,6 +59,15 @@ pub fn cycles_in_period_since(start: u32) -> u32 {
     }
 }
 
+/// `cycles` as a share of one SysTick period (periodic mode), per mille,
+/// saturating.
+#[inline]
+pub fn permille_of_period(cycles: u32) -> u16 {
+    let period = SYST::get_reload() as u64 + 1;
+    let p = (cycles as u64 * 1000).checked_div(period).unwrap_or(0);
+    p.min(u16::MAX as u64) as u16
+}
+
 /// Cycles now (24-bit, wrapping; free-running mode).
 #[inline(always)]
 pub fn cycles() -> u32 {

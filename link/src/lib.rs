@@ -218,7 +218,9 @@ pub enum HostMsg {
         /// Its id (Grbl's `$N` numbering where one exists).
         id: u16,
     },
-    /// Write a setting (at rest only, [`ErrorCode::Busy`] otherwise):
+    /// Write a setting (at rest with nothing queued or in a carried-out
+    /// alarm only, [`ErrorCode::Busy`] otherwise; with the spindle and
+    /// coolant off, [`ErrorCode::OutputsOn`] otherwise):
     /// checked ([`ErrorCode::OutOfRange`], [`ErrorCode::UnknownSetting`]:
     /// nothing changed), stored, answered with [`DeviceMsg::Setting`].
     SetSetting {
@@ -366,6 +368,11 @@ pub struct MachineStatus {
     pub store: StoreResult,
     /// A setting changed that takes effect only at the next reset.
     pub restart_needed: bool,
+    /// The step timer interrupt's worst share of a tick period so far,
+    /// per mille of the core (its calls' cycles within one period, each
+    /// from its first instruction to its last); 0 where the tick runs the
+    /// step engine itself (QEMU: within `Status::worst_tick_cycles`).
+    pub step_isr_permille: u16,
 }
 
 /// Smallest feed override, percent.
@@ -519,6 +526,10 @@ pub enum ErrorCode {
     UnknownSetting,
     /// `HostMsg::Unlock` while the e-stop input is active.
     InputActive,
+    /// A setting written with the spindle or coolant on: settings are
+    /// written to flash, whose erase stalls the controller, so only with
+    /// the outputs off.
+    OutputsOn,
 }
 
 /// Controller to host.
@@ -947,6 +958,7 @@ mod tests {
                 mist: true,
                 store: StoreResult::WriteFailed,
                 restart_needed: true,
+                step_isr_permille: u16::MAX,
             }),
             DeviceMsg::Applied {
                 seq: u32::MAX,

@@ -261,6 +261,7 @@ fn refused(what: &str, code: ErrorCode) -> Failure {
         ErrorCode::Busy => " (busy: it takes this only at rest with nothing queued; let the path finish or `fuzzy-send stop`)",
         ErrorCode::Alarm => " (in alarm: `fuzzy-send unlock` first)",
         ErrorCode::InputActive => " (the e-stop input is active: release it first)",
+        ErrorCode::OutputsOn => " (the spindle or coolant is on: settings are written to flash only with them off; M5, M9)",
         ErrorCode::UnknownSetting => " (no such setting)",
         ErrorCode::OutOfRange => " (out of range, or invalid with the other settings: nothing changed)",
         _ => "",

@@ -1215,6 +1215,9 @@ fn settings_are_read_and_written_over_the_link() {
     for a in [120, 121, 122] {
         assert_eq!(fw.set_setting(a, 500), Ok(500));
     }
+    // Step settings at rest: in force for the next path, no reset.
+    assert_eq!(fw.set_setting(100, 80_000), Ok(80_000));
+    assert_eq!(fw.set_setting(0, 4_000), Ok(4_000));
     let deadline = std::time::Instant::now() + Duration::from_secs(5);
     while !fw
         .rec
@@ -1237,6 +1240,16 @@ fn settings_are_read_and_written_over_the_link() {
     fw.poll_until(Duration::from_millis(20), Duration::from_secs(120), |s| {
         s.motion == Motion::Idle && s.pos_mm == goal
     });
+    let s = fw.status();
+    assert_eq!(
+        (s.step_lag_ticks, s.step_late_ticks),
+        (0, 0),
+        "the step engine rebuilt at rest: nothing carried or late"
+    );
+    assert!(
+        !fw.machine_status().restart_needed,
+        "step settings apply without a reset"
+    );
     let (rep, p) = verify("settings", &mut fw, &paths, 0);
     assert!(
         (rep.accel_mm_s2 - 250.0).abs() < 0.5,
@@ -1245,7 +1258,7 @@ fn settings_are_read_and_written_over_the_link() {
     );
     assert!(p.tang_acc > 0.9, "the path used the new limit: {p:?}");
     println!(
-        "settings: read, written (ROM: WriteFailed, in force), refused out of range, unknown and while moving; the path ran at 500 mm/s² per axis, replay bit-exact with the settings read back"
+        "settings: read, written (ROM: WriteFailed, in force), refused out of range, unknown and while moving; steps/mm and pulse width written at rest in force without a reset (no lag, no late plan); the path ran at 500 mm/s² per axis, replay bit-exact with the settings read back"
     );
 }
 

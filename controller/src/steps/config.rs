@@ -232,6 +232,18 @@ impl core::fmt::Display for StepConfigError {
     }
 }
 
+/// The step generator's settings as its two halves take them: the
+/// planner (in the tick) its steps/mm and window, the engine (the step
+/// timer's interrupt) the timing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct StepSettings {
+    /// Pulse, setup, polarity, window, in counts.
+    pub timing: Timing,
+    /// Steps per mm, per axis.
+    pub steps_per_mm: [StepsPerMm; 3],
+}
+
 /// Checked settings in timer counts, what the planner and engine use.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

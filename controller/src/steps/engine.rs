@@ -778,6 +778,29 @@ impl<'a> StepEngine<'a> {
         self.events[I] = e;
     }
 
+    /// New step settings `timing` (the same window length) at `start`
+    /// (whole steps per axis): the engine built anew on its queue, its
+    /// figures kept, DIR unknown again (set before the next step; the step
+    /// pins' rest levels are [`Self::idle_edges`], for the caller to write).
+    /// For a machine at rest: a step owed or planned is dropped, and so
+    /// are the plans queued, with their windows: the next window is the
+    /// one of the plan the tick queues next.
+    pub fn reconfigure(&mut self, timing: Timing, start: [i64; 3]) {
+        let mut first = self.window_end;
+        if self.have_next {
+            first = first.wrapping_add(self.t.window);
+        }
+        while self.plans.ready() {
+            self.plans.pop();
+            first = first.wrapping_add(self.t.window);
+        }
+        let held = self.plans.handle();
+        let plans = core::mem::replace(&mut self.plans, held);
+        let report = self.report;
+        *self = Self::new(timing, plans, self.shared, start, first);
+        self.report = report;
+    }
+
     /// Software stepping: every batch due up to `limit` written through
     /// `out` (edges, time) at its due time.
     pub fn run_until(&mut self, limit: u32, mut out: impl FnMut(Edges, u32)) {

@@ -27,7 +27,7 @@ pub mod report;
 #[cfg(feature = "std")]
 pub mod sim;
 
-pub use config::{AxisConfig, StepConfig, StepConfigError, StepsPerMm, Timing};
+pub use config::{AxisConfig, StepConfig, StepConfigError, StepSettings, StepsPerMm, Timing};
 pub use engine::{Due, Edges, StepEngine};
 pub use plan::{Planner, TickPlan};
 pub use queue::{PlanQueue, PlanRx, PlanTx};

@@ -103,6 +103,15 @@ impl PlanTx<'_> {
     }
 }
 
+impl<'a> PlanRx<'a> {
+    /// A second handle on this reading end, held by an engine for the
+    /// moment it is rebuilt on the first (and then dropped: never two
+    /// readers at work).
+    pub(crate) fn handle(&self) -> PlanRx<'a> {
+        PlanRx { q: self.q }
+    }
+}
+
 impl PlanRx<'_> {
     /// Whether a plan is waiting.
     #[inline(always)]
