@@ -27,17 +27,19 @@ const TWO_US: f64 = 168.0;
 
 /// The step timer interrupt on a 168 MHz STM32F4, modelled from the
 /// engine's instruction counts in QEMU (`firmware/src/bin/cost.rs`,
-/// `cost steps3x`: about 250 instructions a batch, 300 more to change
-/// windows) at 1.65 cycles an instruction: 0.25 µs from the compare match
-/// to the pin write (entry, the pending batch's store), the counter read
-/// right after, 2.5 µs (210 counts) before the next batch is ready, 3 µs
-/// more after a window change; the tick hands its plan over 0.1 ms into
-/// its period.
+/// `cost steps3x`: `batch_mean` for a batch, `window_batch_mean` for one
+/// that changes windows; the figures in firmware/README.md) at 1.65 cycles
+/// an instruction, 2 cycles a count of the 84 MHz timer: 0.25 µs from the
+/// compare match to the pin write (entry, the pending batch's store), the
+/// counter read right after, `batch_mean × 1.65 / 2` counts before the
+/// next batch is ready, `(window_batch_mean − batch_mean) × 1.65 / 2` more
+/// after a window change; the tick hands its plan over 0.1 ms into its
+/// period.
 const LOADED: Model = Model {
     latency: 21,
     read_after: 2,
-    busy: 210,
-    busy_window: 250,
+    busy: 189,
+    busy_window: 324,
     tick_delay: 8_400,
 };
 
@@ -428,7 +430,7 @@ impl Case {
 
     /// Positions in steps, tick by tick: speed ramps linearly to each
     /// segment's target (at most 80 % of the pulse limit, and 150 kHz; 50
-    /// kHz under the loaded interrupt, whose 2.7 µs a batch cap the three
+    /// kHz under the loaded interrupt, whose time a batch caps the three
     /// axes together near 150 000 steps a second), plus a dither that
     /// reverses the axis around step boundaries.
     fn path(&self, limit_hz: f64) -> Vec<[f64; 3]> {

@@ -437,16 +437,33 @@ impl Default for StepGpio {
 }
 
 impl StepPins for StepGpio {
-    #[inline]
+    /// Port by port, each index a constant (so that the map's port count
+    /// decides the code, without a loop).
+    #[inline(always)]
     fn write(&mut self, e: Edges) {
-        let (ports, n) = STEP_PORTS;
-        for (port, bits) in ports.iter().zip(STEP_BSRR.iter()).take(n) {
-            let set = bits.get((e.set & 63) as usize).copied().unwrap_or(0) as u32;
-            let clear = bits.get((e.clear & 63) as usize).copied().unwrap_or(0) as u32;
-            if set | clear != 0 {
-                reg::write(reg::GPIO + 0x400 * *port as u32 + 0x18, set | (clear << 16));
-            }
-        }
+        step_port::<0>(e);
+        step_port::<1>(e);
+        step_port::<2>(e);
+        step_port::<3>(e);
+        step_port::<4>(e);
+        step_port::<5>(e);
+    }
+}
+
+/// Port `K` of [`STEP_PORTS`] (nothing past the map's count): its BSRR
+/// written if `e` changes one of its pins.
+#[inline(always)]
+fn step_port<const K: usize>(e: Edges) {
+    if K >= STEP_PORTS.1 {
+        return;
+    }
+    let (Some(port), Some(bits)) = (STEP_PORTS.0.get(K), STEP_BSRR.get(K)) else {
+        return;
+    };
+    let set = bits.get((e.set & 63) as usize).copied().unwrap_or(0) as u32;
+    let clear = bits.get((e.clear & 63) as usize).copied().unwrap_or(0) as u32;
+    if set | clear != 0 {
+        reg::write(reg::GPIO + 0x400 * *port as u32 + 0x18, set | (clear << 16));
     }
 }
 

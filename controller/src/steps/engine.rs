@@ -126,6 +126,8 @@ fn until(x: u32, now: u32) -> u32 {
 struct Crossings {
     left: u32,
     forward: bool,
+    /// `forward` as a step: +1 or −1.
+    step: i64,
     /// The next crossing's time: its exact time rounded up (absolute
     /// counts; the engine never emits one before its window's first
     /// count).
@@ -142,12 +144,27 @@ impl Crossings {
         Crossings {
             left: p.steps,
             forward: p.forward,
+            step: if p.forward { 1 } else { -1 },
             at: base.wrapping_add(p.first),
             short: p.first_short,
             interval: p.interval,
             interval_rem: p.interval_rem,
             dq: p.dq,
         }
+    }
+
+    /// `o`'s crossings, field by field (a whole-struct copy of this size
+    /// becomes a `memcpy` call).
+    #[inline(always)]
+    fn set(&mut self, o: &Crossings) {
+        self.left = o.left;
+        self.forward = o.forward;
+        self.step = o.step;
+        self.at = o.at;
+        self.short = o.short;
+        self.interval = o.interval;
+        self.interval_rem = o.interval_rem;
+        self.dq = o.dq;
     }
 
     /// Past the next crossing.
@@ -166,13 +183,10 @@ impl Crossings {
         }
     }
 
+    /// The step of a crossing (only while `left > 0`).
     #[inline(always)]
     fn sign(&self) -> i64 {
-        if self.forward {
-            1
-        } else {
-            -1
-        }
+        self.step
     }
 }
 
@@ -221,6 +235,37 @@ struct Event {
     latest: u32,
 }
 
+impl Event {
+    /// The end of a pulse: at `f` at the earliest, and by a pulse width
+    /// later (to share a batch) unless the next step needs it by `bound`.
+    #[inline(always)]
+    fn fall(kind: Kind, edges: Edges, f: u32, pulse: u32, bound: u32) -> Event {
+        Event {
+            kind,
+            edges,
+            earliest: f,
+            latest: later(f, earlier(f.wrapping_add(pulse), bound)),
+        }
+    }
+
+    /// A step for the crossing at `c`: not before `ready` (the minimums),
+    /// `early` before `c` or its window's first count; at `c` at the latest
+    /// (or as soon as it may, if later).
+    #[inline(always)]
+    fn rise(kind: Kind, edges: Edges, c: u32, ready: u32, early: u32, window_start: u32) -> Event {
+        let earliest = later(
+            ready,
+            later(c.wrapping_sub(early), window_start.wrapping_add(1)),
+        );
+        Event {
+            kind,
+            edges,
+            earliest,
+            latest: later(c, earliest),
+        }
+    }
+}
+
 #[derive(Clone, Copy, Debug, Default)]
 struct Axis {
     /// Steps emitted (rising edges, signed by DIR).
@@ -236,9 +281,10 @@ struct Axis {
     fall_at: u32,
     /// Earliest next rising edge (low time, direction setup).
     rise_ok: u32,
-    /// This window's crossings and the next's, `win[c]` running.
-    win: [Crossings; 2],
-    c: usize,
+    /// This window's crossings.
+    cur: Crossings,
+    /// The next window's crossings (none unless the engine holds its plan).
+    nxt: Crossings,
     /// The next plan's start, whole steps.
     nxt_start: i64,
     /// What the reversal filter took from the next window in advance.
@@ -259,23 +305,23 @@ impl Axis {
     /// This window's crossings.
     #[inline(always)]
     fn cur(&self) -> &Crossings {
-        &self.win[self.c & 1]
+        &self.cur
     }
 
     #[inline(always)]
     fn cur_mut(&mut self) -> &mut Crossings {
-        &mut self.win[self.c & 1]
+        &mut self.cur
     }
 
     /// The next window's crossings.
     #[inline(always)]
     fn nxt(&self) -> &Crossings {
-        &self.win[(self.c ^ 1) & 1]
+        &self.nxt
     }
 
     #[inline(always)]
     fn nxt_mut(&mut self) -> &mut Crossings {
-        &mut self.win[(self.c ^ 1) & 1]
+        &mut self.nxt
     }
 
     /// What the axis wants next; the reversal filter drops pairs on the
@@ -333,26 +379,23 @@ impl Axis {
         {
             let step_on = tm.invert_step & bit == 0;
             return if self.high {
-                let f = self.fall_at;
                 let bound = c.wrapping_sub(tm.early).wrapping_sub(tm.low);
-                Event {
-                    kind: Kind::Fall,
-                    edges: Edges::of(bit, !step_on),
-                    earliest: f,
-                    latest: later(f, earlier(f.wrapping_add(tm.pulse), bound)),
-                }
+                Event::fall(
+                    Kind::Fall,
+                    Edges::of(bit, !step_on),
+                    self.fall_at,
+                    tm.pulse,
+                    bound,
+                )
             } else {
-                let window_start = end.wrapping_sub(tm.window);
-                let earliest = later(
+                Event::rise(
+                    Kind::Rise,
+                    Edges::of(bit, step_on),
+                    c,
                     later(self.rise_ok, now),
-                    later(c.wrapping_sub(tm.early), window_start.wrapping_add(1)),
-                );
-                Event {
-                    kind: Kind::Rise,
-                    edges: Edges::of(bit, step_on),
-                    earliest,
-                    latest: later(c, earliest),
-                }
+                    tm.early,
+                    end.wrapping_sub(tm.window),
+                )
             };
         }
         self.event_general(bit, tm, now, end, have_next, filtered)
@@ -398,12 +441,7 @@ impl Axis {
                 Want::Owed(_) => (Kind::Fall, f),
                 Want::Nothing => (Kind::Fall, f.wrapping_add(tm.pulse)),
             };
-            return Event {
-                kind,
-                edges,
-                earliest: f,
-                latest: later(f, earlier(f.wrapping_add(tm.pulse), bound)),
-            };
+            return Event::fall(kind, edges, f, tm.pulse, bound);
         }
         let (d, cross) = match want {
             Want::Nothing => return Event::default(),
@@ -437,25 +475,12 @@ impl Axis {
             Some((c, next_window)) => {
                 // Never before its own window: a step belongs to the tick
                 // whose end it precedes.
-                let window_start = if next_window {
-                    end
+                let (kind, window_start) = if next_window {
+                    (Kind::RiseNext, end)
                 } else {
-                    end.wrapping_sub(tm.window)
+                    (Kind::Rise, end.wrapping_sub(tm.window))
                 };
-                let earliest = later(
-                    ready,
-                    later(c.wrapping_sub(tm.early), window_start.wrapping_add(1)),
-                );
-                Event {
-                    kind: if next_window {
-                        Kind::RiseNext
-                    } else {
-                        Kind::Rise
-                    },
-                    edges,
-                    earliest,
-                    latest: later(c, earliest),
-                }
+                Event::rise(kind, edges, c, ready, tm.early, window_start)
             }
         }
     }
@@ -532,6 +557,12 @@ pub struct StepEngine<'a> {
     report: StepReport,
     /// Stopped by the tick ([`Self::poll_halt`]): plans are dropped.
     halted: bool,
+    /// Per axis, the edges of a step's rise and of its fall.
+    rise_edges: [Edges; 3],
+    fall_edges: [Edges; 3],
+    /// `early + low`: a falling edge's latest time before the next
+    /// crossing.
+    early_low: u32,
 }
 
 impl<'a> StepEngine<'a> {
@@ -570,6 +601,9 @@ impl<'a> StepEngine<'a> {
             pending_valid: false,
             report: StepReport::default(),
             halted: false,
+            rise_edges: [0, 1, 2].map(|i| Edges::of(1 << i, timing.invert_step & 1 << i == 0)),
+            fall_edges: [0, 1, 2].map(|i| Edges::of(1 << i, timing.invert_step & 1 << i != 0)),
+            early_low: timing.early.wrapping_add(timing.low),
         }
     }
 
@@ -585,7 +619,8 @@ impl<'a> StepEngine<'a> {
                 self.halted = true;
                 for a in self.axes.iter_mut() {
                     a.owed = 0;
-                    a.win = [Crossings::default(); 2];
+                    a.cur = Crossings::default();
+                    a.nxt = Crossings::default();
                     a.nxt_consumed = 0;
                     a.nxt_start = a.pos;
                 }
@@ -680,18 +715,67 @@ impl<'a> StepEngine<'a> {
         }
     }
 
-    /// Axis `I`'s event was written at `t`: apply it, work out the next
-    /// (the two transitions of steady stepping, a step's rising edge and
-    /// its falling edge with the next crossing the same way, inline).
+    /// Axis `I`'s event was written at `t`: apply it, work out the next.
+    /// The two transitions of steady stepping (a step's rising edge, and
+    /// its falling edge, with the next crossing in this window and the way
+    /// DIR points, nothing owed, no reversal filter to consult) are worked
+    /// out here, in place; every other case goes the general way
+    /// ([`Self::next_event`]).
     #[inline(always)]
     fn step_axis<const I: usize>(&mut self, t: u32) {
+        let tm = &self.t;
+        let ev = &mut self.events[I];
+        let a = &mut self.axes[I];
+        let kind = ev.kind;
+        match kind {
+            Kind::Rise => {
+                a.high = true;
+                let f = t.wrapping_add(tm.pulse);
+                a.fall_at = f;
+                a.pos += a.cur.sign();
+                a.cur.advance();
+                let c = &a.cur;
+                if c.left > 0 && (tm.filter == 0 || c.left > 1) && a.dir == Some(c.forward) {
+                    let bound = c.at.wrapping_sub(self.early_low);
+                    *ev = Event::fall(Kind::Fall, self.fall_edges[I], f, tm.pulse, bound);
+                    return;
+                }
+            }
+            Kind::Fall => {
+                a.high = false;
+                let ok = later(a.rise_ok, t.wrapping_add(tm.low));
+                a.rise_ok = ok;
+                let c = &a.cur;
+                if a.owed == 0
+                    && c.left > 0
+                    && (tm.filter == 0 || c.left > 1)
+                    && a.dir == Some(c.forward)
+                {
+                    *ev = Event::rise(
+                        Kind::Rise,
+                        self.rise_edges[I],
+                        c.at,
+                        later(ok, t),
+                        tm.early,
+                        self.window_end.wrapping_sub(tm.window),
+                    );
+                    return;
+                }
+            }
+            _ => a.apply(kind, tm, t),
+        }
+        self.next_event::<I>(kind, t);
+    }
+
+    /// Axis `I`'s next event after `kind` was written at `t` (and applied),
+    /// in every case.
+    #[inline(never)]
+    fn next_event<const I: usize>(&mut self, kind: Kind, t: u32) {
         let (end, have_next) = (self.window_end, self.have_next);
-        let kind = self.events[I].kind;
         let a = &mut self.axes[I];
         let tm = &self.t;
         let bit = 1u8 << I;
         let step_on = tm.invert_step & bit == 0;
-        a.apply(kind, tm, t);
         // The next crossing, this window's or (none left) the next's; with
         // the reversal filter on, a window's last crossing goes the general
         // way.
@@ -705,37 +789,25 @@ impl<'a> StepEngine<'a> {
         };
         let e = match (kind, next) {
             (Kind::Rise | Kind::RiseNext, Some((c, fwd, _))) if plain && a.dir == Some(fwd) => {
-                let f = a.fall_at;
                 let bound = c.wrapping_sub(tm.early).wrapping_sub(tm.low);
-                Event {
-                    kind: Kind::Fall,
-                    edges: Edges::of(bit, !step_on),
-                    earliest: f,
-                    latest: later(f, earlier(f.wrapping_add(tm.pulse), bound)),
-                }
+                Event::fall(
+                    Kind::Fall,
+                    Edges::of(bit, !step_on),
+                    a.fall_at,
+                    tm.pulse,
+                    bound,
+                )
             }
             (Kind::Fall, Some((c, fwd, next_window)))
                 if plain && a.owed == 0 && a.dir == Some(fwd) =>
             {
-                let window_start = if next_window {
-                    end
+                let (kind, window_start) = if next_window {
+                    (Kind::RiseNext, end)
                 } else {
-                    end.wrapping_sub(tm.window)
+                    (Kind::Rise, end.wrapping_sub(tm.window))
                 };
-                let earliest = later(
-                    later(a.rise_ok, t),
-                    later(c.wrapping_sub(tm.early), window_start.wrapping_add(1)),
-                );
-                Event {
-                    kind: if next_window {
-                        Kind::RiseNext
-                    } else {
-                        Kind::Rise
-                    },
-                    edges: Edges::of(bit, step_on),
-                    earliest,
-                    latest: later(c, earliest),
-                }
+                let edges = Edges::of(bit, step_on);
+                Event::rise(kind, edges, c, later(a.rise_ok, t), tm.early, window_start)
             }
             _ => a.event(bit, tm, t, end, have_next, &mut self.report.filtered_pairs),
         };
@@ -832,7 +904,7 @@ impl<'a> StepEngine<'a> {
             self.plans.axis::<2>(),
         ];
         for (a, ap) in self.axes.iter_mut().zip(plans.iter()) {
-            *a.nxt_mut() = Crossings::of(ap, base);
+            a.nxt.set(&Crossings::of(ap, base));
             a.nxt_start = ap.start;
             a.nxt_consumed = 0;
         }
@@ -913,8 +985,9 @@ impl<'a> StepEngine<'a> {
                 a.owed += a.nxt_start - expected;
                 moved = true;
             }
-            a.c ^= 1;
-            a.nxt_mut().left = 0;
+            let n = a.nxt;
+            a.cur.set(&n);
+            a.nxt.left = 0;
             a.nxt_consumed = 0;
             // A step waiting for the next window's crossing now waits for
             // this window's.
@@ -934,9 +1007,11 @@ impl<'a> StepEngine<'a> {
         // count at that end any more, and the next window's first steps then
         // need no window change before them.
         let now = self.now;
-        if self.have_next
+        let [a0, a1, a2] = &self.axes;
+        if a0.cur.left | a1.cur.left | a2.cur.left == 0
+            && a0.owed | a1.owed | a2.owed == 0
+            && self.have_next
             && until(self.window_end, now) < self.t.window
-            && self.axes.iter().all(|a| a.cur().left == 0 && a.owed == 0)
         {
             self.rollover();
         }
@@ -954,40 +1029,44 @@ impl<'a> StepEngine<'a> {
         }
     }
 
+    #[inline(always)]
     fn compute_batch(&mut self) {
         let now = self.now;
-        let to_end = until(self.window_end, now);
-        let half = self.t.window / 2;
+        // Signed counts from now (every time kept within ±2^31 of it);
+        // `wait` is the least of them, at least 0.
+        let ahead = |x: u32| x.wrapping_sub(now) as i32;
+        let to_end = ahead(self.window_end);
+        let half = (self.t.window / 2) as i32;
         // Without lookahead (start-up, or a late tick) look again in half a
         // tick rather than at the window's end.
-        let (mut wait, rollover_ok) = if !self.have_next && to_end > half {
+        let (cap, rollover_ok) = if !self.have_next && to_end > half {
             (half, false)
         } else {
             (to_end, true)
         };
         let [e0, e1, e2] = &self.events;
-        let (l0, l1, l2) = (
-            until(e0.latest, now),
-            until(e1.latest, now),
-            until(e2.latest, now),
-        );
-        wait = wait.min(l0).min(l1).min(l2);
+        let wait = cap
+            .min(ahead(e0.latest))
+            .min(ahead(e1.latest))
+            .min(ahead(e2.latest))
+            .max(0);
         let mut b = Batch {
-            at: now.wrapping_add(wait),
+            at: now.wrapping_add(wait as u32),
             rollover: rollover_ok && to_end <= wait,
             ..Batch::default()
         };
-        if until(e0.earliest, now) <= wait {
+        let due = |e: &Event| ahead(e.earliest) <= wait;
+        if due(e0) {
             b.axes |= 1;
             b.edges.set |= e0.edges.set;
             b.edges.clear |= e0.edges.clear;
         }
-        if until(e1.earliest, now) <= wait {
+        if due(e1) {
             b.axes |= 2;
             b.edges.set |= e1.edges.set;
             b.edges.clear |= e1.edges.clear;
         }
-        if until(e2.earliest, now) <= wait {
+        if due(e2) {
             b.axes |= 4;
             b.edges.set |= e2.edges.set;
             b.edges.clear |= e2.edges.clear;

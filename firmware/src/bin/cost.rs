@@ -132,6 +132,8 @@ struct Measured {
 struct StepStats {
     plan: Stat,
     batch: Stat,
+    /// The batches that changed windows (also in `batch`).
+    window: Stat,
     steps: u64,
 }
 
@@ -139,6 +141,7 @@ impl StepStats {
     fn merge(&mut self, o: &StepStats) {
         self.plan.merge(&o.plan);
         self.batch.merge(&o.batch);
+        self.window.merge(&o.window);
         self.steps += o.steps;
     }
 
@@ -181,6 +184,7 @@ fn run_window(
     let end = now.wrapping_add(window).wrapping_sub(1);
     let before = engine.position();
     loop {
+        let w0 = engine.window_end();
         let t0 = cycles();
         let d = engine.due();
         if (d.at.wrapping_sub(end) as i32) > 0 {
@@ -188,7 +192,11 @@ fn run_window(
         }
         pins.write(d.edges);
         engine.done(d.at);
-        s.batch.add(cycles_since(t0));
+        let dt = cycles_since(t0);
+        s.batch.add(dt);
+        if engine.window_end() != w0 {
+            s.window.add(dt);
+        }
     }
     let after = engine.position();
     for (a, b) in after.iter().zip(before) {
@@ -333,12 +341,13 @@ fn steps3x(timing_of: impl Fn(&StepConfig) -> Timing) {
     // The engine's share of the core over the run's duration.
     let per_s = qemu_instructions(s.batch.total) * TICK_HZ as u64 / ticks as u64;
     hprintln!(
-        "cost steps3x rates_khz=150,120,105 ticks={} steps={} batches={} batch_mean={} batch_worst={} per_step={} plan_mean={} plan_worst={} lag_ticks={} engine_permille={}",
+        "cost steps3x rates_khz=150,120,105 ticks={} steps={} batches={} batch_mean={} batch_worst={} window_batch_mean={} per_step={} plan_mean={} plan_worst={} lag_ticks={} engine_permille={}",
         ticks,
         s.steps,
         s.batch.n,
         mean(&s.batch, s.batch.n),
         worst(&s.batch),
+        mean(&s.window, s.window.n),
         s.per_step(),
         mean(&s.plan, s.plan.n),
         worst(&s.plan),
