@@ -494,12 +494,22 @@ impl Program {
     }
 
     /// Time of each block (`p[i-1] → p[i]`) at the scheduled feeds capped
-    /// to the machine's maximum, at 100 % override, without acceleration:
-    /// cumulative, s, by point index.
+    /// to the machine's maximum, at 100 % override, without acceleration,
+    /// plus every dwell (G4 P, a drilling cycle's P) where it happens:
+    /// cumulative, s, by point index (a dwell after point `i` counts from
+    /// point `i + 1` on).
     pub fn cum_time_s(&self, feeds: &[Option<i64>], feed_max_mm_per_min: f64) -> Vec<f64> {
         let mut out = Vec::with_capacity(self.points.len());
         let mut t = 0.0;
+        // Dwell seconds that start at each point.
+        let mut dwell_s = vec![0.0; self.points.len()];
+        for e in &self.events {
+            if let (MachineCmd::Dwell { ms }, Some(d)) = (e.cmd, dwell_s.get_mut(e.after + 1)) {
+                *d += ms as f64 / 1000.0;
+            }
+        }
         for i in 0..self.points.len() {
+            t += dwell_s[i];
             let len = self.length_to_mm(i)
                 - if i == 0 {
                     0.0
@@ -621,6 +631,24 @@ mod tests {
         assert!(t.windows(2).all(|w| w[1] >= w[0]));
         // At most F_max: at least length / F_max.
         assert!(t[t.len() - 1] >= p.length_mm() / 3000.0 * 60.0 - 1e-9);
+    }
+
+    #[test]
+    fn dwells_count_in_the_time_from_the_point_after_them() {
+        let dir = std::env::temp_dir().join(format!("sender-dwell-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("dwell.ngc");
+        // 1 mm at F60: 1 s a block; a 2.5 s dwell after the first block.
+        std::fs::write(&f, "G21 G90\nG1 X1 F60\nG4 P2.5\nG1 X2\nG1 X3\n").unwrap();
+        let p = load(&f.to_string_lossy(), &SimConfig::default()).unwrap();
+        std::fs::remove_dir_all(&dir).ok();
+        let feeds = vec![Some(60i64 << 32); p.len()];
+        let t = p.cum_time_s(&feeds, 5000.0);
+        assert_eq!(t.len(), 4);
+        let want = [0.0, 1.0, 4.5, 5.5];
+        for (got, want) in t.iter().zip(want) {
+            assert!((got - want).abs() < 1e-6, "{t:?}");
+        }
     }
 
     #[test]

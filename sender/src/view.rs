@@ -123,8 +123,8 @@ impl View {
 
 /// The time left, from the host's schedule: the remaining blocks at their
 /// scheduled feeds (capped to the machine's), divided by the override,
-/// times how much slower than that estimate the run has been so far (the
-/// estimate has no acceleration; the factor learns it).
+/// plus the dwells left, times how much slower than that estimate the run
+/// has been so far (the estimate has no acceleration; the factor learns it).
 #[derive(Clone, Debug)]
 pub struct Eta {
     /// Cumulative time to each point index at 100 % (see
