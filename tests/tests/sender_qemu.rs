@@ -482,9 +482,11 @@ fn scripted_hold_resume_override_and_stop() {
     let file = repo_root().join("tests/data/shapes/trident.csv");
     let rec_path = temp("script.jsonl");
     let script = temp("script.txt");
+    // The hold lasts long enough in wall time for QEMU, whose clock runs
+    // slower than the wall's on a loaded machine, to bring the tool to rest.
     std::fs::write(
         &script,
-        "at point 300: hold\nafter 500 ms: resume\nat point 700: override 50\nat point 900: override +10\nat point 1200: stop\n",
+        "at point 300: hold\nafter 3 s: resume\nat point 700: override 50\nat point 900: override +10\nat point 1200: stop\n",
     )
     .expect("script");
     let q = Qemu::start("script");
