@@ -335,12 +335,8 @@ impl Executor {
             self.v = 0;
             self.a = 0;
         }
-        let seg = plan.seg_of(self.seg, self.x);
-        if seg != self.seg {
-            self.seg = seg;
-            self.seg_valid = false;
-        }
-        let reached = if self.x >= s_tail { tail } else { seg };
+        self.catch_up(plan);
+        let reached = if self.x >= s_tail { tail } else { self.seg };
         self.reached = plan.front_index().wrapping_add(reached as u32);
         if self.hold {
             MotionState::Holding
