@@ -508,8 +508,8 @@ impl Program {
                 *d += ms as f64 / 1000.0;
             }
         }
-        for i in 0..self.points.len() {
-            t += dwell_s[i];
+        for (i, dwell) in dwell_s.iter().enumerate() {
+            t += dwell;
             let len = self.length_to_mm(i)
                 - if i == 0 {
                     0.0
