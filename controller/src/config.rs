@@ -37,7 +37,7 @@ use fuzzy_core::units::FeedMmPerMin;
 
 use crate::settings::{
     AXIS_ACCEL_MM_PER_S2, AXIS_SPEED_MM_PER_MIN, CHORD_NM, FEED_MAX_MM_PER_MIN, JERK_MM_PER_S3,
-    STEP_CONFIG, STEP_TIMER_HZ, TANGENTIAL_SHARE_PERCENT, TICK_HZ,
+    SMOOTHING_TICKS, STEP_CONFIG, STEP_TIMER_HZ, TANGENTIAL_SHARE_PERCENT, TICK_HZ,
 };
 use crate::steps::{AxisConfig, StepConfig, StepConfigError, StepSettings, StepsPerMm, Timing};
 
@@ -121,10 +121,11 @@ pub enum Key {
     DirSetup,
     LinkLoss,
     SpinUp,
+    Smoothing,
 }
 
 /// How many settings there are.
-pub const COUNT: usize = 40;
+pub const COUNT: usize = 41;
 
 const fn s(
     id: u16,
@@ -369,6 +370,14 @@ pub const SETTINGS: [SettingInfo; COUNT] = [
         (0, 60_000),
         Apply::Now,
     ),
+    s(
+        208,
+        "corner smoothing: commanded positions averaged over this many ticks (1: off; corners blended within the chord tolerance)",
+        "ticks",
+        0,
+        (1, 8),
+        Apply::AtRest,
+    ),
 ];
 
 /// The defaults, in [`Key`] order (the planner's from the build-time
@@ -414,6 +423,7 @@ const DEFAULTS: [i64; COUNT] = [
     STEP_CONFIG.dir_setup_ns as i64,
     5000, // link-loss timeout 5 s
     1000, // spin-up 1 s
+    SMOOTHING_TICKS as i64,
 ];
 
 /// The polarity mask of the build-time step settings (`dir`: the
@@ -567,6 +577,7 @@ impl Config {
                 (self.get(Key::Chord).clamp(0, 1 << 30) << 32) / 1_000_000,
             ),
             tangential_share: I16F16::from_bits((share << 16) / 100),
+            smoothing_ticks: self.get(Key::Smoothing).clamp(1, 8) as u8,
         }
     }
 
@@ -719,6 +730,7 @@ mod tests {
             assert!(a.min <= a.max);
         }
         assert_eq!(SETTINGS[Key::SpinUp as usize].id, 207);
+        assert_eq!(SETTINGS[Key::Smoothing as usize].id, 208);
         assert_eq!(SETTINGS[Key::StepsPerMmX as usize].id, 100);
         assert_eq!(SETTINGS[Key::TravelZ as usize].id, 132);
         assert_eq!(SETTINGS[Key::HomingPass1 as usize].id, 44);
@@ -744,6 +756,21 @@ mod tests {
         assert_eq!(c.set(120, 500).map(|i| i.apply), Ok(Apply::AtRest));
         assert_eq!(c.motion_config().axis_accel_max_mm_s2[0], 500);
         assert_eq!(c.by_id(120), Ok(500));
+    }
+
+    #[test]
+    fn corner_smoothing_is_checked_against_the_tolerance() {
+        let mut c = Config::DEFAULT;
+        assert_eq!(c.motion_config().smoothing_ticks, 1);
+        assert_eq!(c.set(208, 2).map(|i| i.apply), Ok(Apply::AtRest));
+        assert_eq!(c.motion_config().smoothing_ticks, 2);
+        // Three ticks would blend a reversal wider than 1 µm at 1 kHz and
+        // 2000 mm/s²: refused; at 10 µm it fits.
+        assert_eq!(c.set(208, 3), Err(SettingError::OutOfRange));
+        assert_eq!(c.set(208, 9), Err(SettingError::OutOfRange));
+        assert_eq!(c.motion_config().smoothing_ticks, 2);
+        c.set(203, 10_000).unwrap();
+        assert_eq!(c.set(208, 3).map(|i| i.apply), Ok(Apply::AtRest));
     }
 
     #[test]

@@ -147,6 +147,11 @@ pub const CHORD_NM: u32 = env_u32(option_env!("FW_CHORD_NM"), 1000);
 /// default 50).
 pub const TANGENTIAL_SHARE_PERCENT: u32 = env_u32(option_env!("FW_TANGENTIAL_SHARE_PERCENT"), 50);
 
+/// Ticks the commanded position is averaged over (1 = off, up to
+/// `fuzzy_core::planner::SMOOTHING_MAX`; `FW_SMOOTHING_TICKS`, default 1):
+/// corners blended within the chord tolerance and passed faster (`$208`).
+pub const SMOOTHING_TICKS: u8 = clamp(env_u32(option_env!("FW_SMOOTHING_TICKS"), 1), 1, 8) as u8;
+
 /// The velocity planner's settings (`fuzzy_core::planner`); with the
 /// defaults this is `MotionConfig::default()`. Checked at start-up.
 pub const MOTION_CONFIG: MotionConfig = MotionConfig {
@@ -159,6 +164,7 @@ pub const MOTION_CONFIG: MotionConfig = MotionConfig {
     tangential_share: I16F16::from_bits(
         ((clamp(TANGENTIAL_SHARE_PERCENT, 0, 100) as i32) << 16) / 100,
     ),
+    smoothing_ticks: SMOOTHING_TICKS,
 };
 
 /// Points the velocity planner buffers (its lookahead). 112 points of

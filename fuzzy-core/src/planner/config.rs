@@ -27,11 +27,18 @@ pub struct MotionConfig {
     /// the rest is reserved for the changes of direction at the path's
     /// vertices (`0 < ρ < 1`, default 0.5).
     pub tangential_share: Fx,
+    /// Commanded positions averaged over this many ticks (1 = off, at most
+    /// [`SMOOTHING_MAX`]): corners are blended within the chord tolerance
+    /// and may be passed faster (module docs of [`super`], "Smoothing").
+    pub smoothing_ticks: u8,
 }
+
+/// The longest position average, ticks.
+pub const SMOOTHING_MAX: u8 = 8;
 
 impl Default for MotionConfig {
     /// 1 kHz, 5000 mm/min, 10 m/min and 2000 mm/s² per axis, 50 000 mm/s³,
-    /// chord tolerance 1 µm, ρ = 0.5.
+    /// chord tolerance 1 µm, ρ = 0.5, no smoothing.
     fn default() -> Self {
         MotionConfig {
             tick_us: 1000,
@@ -41,6 +48,7 @@ impl Default for MotionConfig {
             jerk_max_mm_s3: 50_000,
             chord_tolerance_mm: I32F32::from_bits(4_294_967), // 0.001 mm
             tangential_share: Fx::lit("0.5"),
+            smoothing_ticks: 1,
         }
     }
 }
@@ -58,6 +66,11 @@ pub enum ConfigError {
     ChordTolerance,
     /// Tangential share not in (0, 1).
     Share,
+    /// Smoothing not in 1 to [`SMOOTHING_MAX`] ticks, or too long for the
+    /// chord tolerance: a reversal passed at the least corner speed would
+    /// be blended wider than the tolerance (fewer ticks, a shorter tick, a
+    /// lower acceleration or a larger tolerance).
+    Smoothing,
     /// The limits are too fine or too coarse for the tick period: the
     /// jerk per tick (`J·Ts³`) is below 2^-24 mm, or the largest feed per
     /// tick exceeds 16 mm. Lower (or raise) the tick rate.
@@ -71,6 +84,9 @@ impl core::fmt::Display for ConfigError {
             ConfigError::Limit => "speed, acceleration and jerk limits must be positive and finite",
             ConfigError::ChordTolerance => "chord tolerance must be in (0, 1] mm",
             ConfigError::Share => "tangential share must be in (0, 1)",
+            ConfigError::Smoothing => {
+                "smoothing must be 1 to 8 ticks, and short enough for the chord tolerance at this acceleration and tick"
+            }
             ConfigError::Resolution => {
                 "jerk per tick below 2^-24 mm or feed per tick above 16 mm: change the tick rate"
             }
@@ -97,8 +113,18 @@ pub(crate) struct Limits {
     pub jerk: i64,
     /// Chord tolerance, mm.
     pub chord: i64,
-    /// Reach of a point's corner limit (2.5 ticks at `feed_max`), mm.
+    /// Reach of a point's corner limit (2.5 ticks at `feed_max`; with
+    /// smoothing over `n` ticks, `(n + 1)` ticks at `feed_max` plus the
+    /// window margin), mm.
     pub reach: i64,
+    /// Segments shorter than this inherit their end points' ceilings
+    /// (2.5 ticks at `feed_max`), mm.
+    pub cap_reach: i64,
+    /// Ticks averaged into the commanded position (1 = off).
+    pub smoothing: u32,
+    /// With smoothing: how much faster than across a vertex the tool may
+    /// step within a window holding it (`n + 1` steps), `n·ρ·min A` per tick.
+    pub window_margin: i64,
     /// Creep speed through a stop point (`min(J·Ts, A)·Ts/2`): arriving no
     /// faster, the final deceleration is at most `J·Ts` and `A`, so stopping
     /// is jerk- and acceleration-limited (at long ticks `J·Ts` can exceed `A`).
@@ -213,6 +239,30 @@ impl MotionConfig {
             return Err(ConfigError::Resolution);
         }
         let axis_accel = self.axis_accel_max_mm_s2.map(accel);
+        if !(1..=SMOOTHING_MAX).contains(&self.smoothing_ticks) {
+            return Err(ConfigError::Smoothing);
+        }
+        let n = i64::from(self.smoothing_ticks);
+        let window_margin = if n > 1 { n * tangential } else { 0 };
+        let corner_creep = (jerk.min(tangential) / 2)
+            .min(corner.iter().copied().min().unwrap_or(0) / 2)
+            .max(1);
+        if n > 1 {
+            // A corner is never passed slower than `corner_creep`; the blend
+            // of a reversal there (`‖Δd‖` bounded by 5/2 in the lookahead's
+            // measure) must stay within the tolerance:
+            // `g_n·5/2·(creep + (2n − 3)·ρA/2) <= δ`, `g_n = ⌊n²/4⌋/(2n)`.
+            let spread = corner_creep as i128 + ((2 * n - 3) * tangential / 2) as i128;
+            if (n * n / 4) as i128 * 5 * spread > 4 * n as i128 * chord as i128 {
+                return Err(ConfigError::Smoothing);
+            }
+        }
+        let cap_reach = feed_max * 5 / 2;
+        let reach = if n > 1 {
+            cap_reach.max((n + 1) * (feed_max + window_margin))
+        } else {
+            cap_reach
+        };
         Ok(Limits {
             feed_max,
             axis_speed: self.axis_speed_max.map(speed),
@@ -222,11 +272,12 @@ impl MotionConfig {
             envelope_decel: tangential - tangential / 20,
             jerk,
             chord,
-            reach: feed_max * 5 / 2,
+            reach,
+            cap_reach,
+            smoothing: n as u32,
+            window_margin,
             creep: (jerk.min(tangential) / 2).max(1),
-            corner_creep: (jerk.min(tangential) / 2)
-                .min(corner.iter().copied().min().unwrap_or(0) / 2)
-                .max(1),
+            corner_creep,
             feed_to_tick_q48: feed_to_tick_q48(t),
             // (t ≥ 50, checked above.)
             tick_to_feed_q16: (60_000_000u64 << 16).checked_div(t as u64).unwrap_or(0) as i64,
@@ -295,6 +346,31 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn smoothing_must_fit_the_tolerance() {
+        let c = MotionConfig::default();
+        let with = |n: u8, tick_us: u32| {
+            MotionConfig {
+                smoothing_ticks: n,
+                tick_us,
+                ..c
+            }
+            .compile()
+            .map(|l| l.smoothing)
+        };
+        assert_eq!(with(0, 1000), Err(ConfigError::Smoothing));
+        assert_eq!(with(SMOOTHING_MAX + 1, 1000), Err(ConfigError::Smoothing));
+        assert_eq!(with(1, 1000), Ok(1));
+        assert_eq!(with(2, 1000), Ok(2));
+        // At 1 kHz a reversal at the least corner speed, averaged over three
+        // ticks, would be blended wider than 1 µm; at 2 kHz it fits.
+        assert_eq!(with(3, 1000), Err(ConfigError::Smoothing));
+        assert_eq!(with(3, 500), Ok(3));
+        assert_eq!(with(4, 500), Ok(4));
+        let l = with(1, 1000).and(c.compile()).unwrap();
+        assert_eq!((l.reach, l.window_margin), (l.cap_reach, 0));
     }
 
     #[test]

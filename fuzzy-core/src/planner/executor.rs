@@ -413,10 +413,17 @@ impl Executor {
             let limit = ld(n.env);
             if limit < vhi {
                 // The speed is at most `limit` on one interval of the tick:
-                // the node must be passed inside it.
+                // the node must be passed inside it. A speed starting on
+                // the limit and rising is over it from the start (the
+                // crossing at time zero is not among the roots).
                 let mut t = [0i64; 4];
                 let c = speed_crossings(self.v, self.a, phases, limit, &mut t);
-                let (lo, hi) = if self.v <= limit {
+                let rising = self.a > 0 || (self.a == 0 && jerk > 0);
+                let under = self.v < limit || (self.v == limit && !rising);
+                let (lo, hi) = if under {
+                    if c == 0 && v2 > limit {
+                        return false; // a crossing lost to rounding
+                    }
                     (0, if c >= 1 { t[0] } else { ONE })
                 } else if c >= 1 {
                     (t[0], if c >= 2 { t[1] } else { ONE })

@@ -416,10 +416,15 @@ impl<const N: usize> Lookahead<N> {
             let ceil = if self.is_path_start(i) || last_of_path {
                 self.lim.creep
             } else {
+                let turn = if self.lim.smoothing > 1 {
+                    self.window_limit(i)
+                } else {
+                    self.turn_limit(i)
+                };
                 self.nodes
                     .get(i)
                     .map_or(0, |n| ld(n.ceil))
-                    .min(self.turn_limit(i))
+                    .min(turn)
                     .min(if forced { newest_s - si } else { i64::MAX })
                     // Nor does a vertex dropped within the reach behind.
                     .min(si.saturating_sub(self.dropped_s))
@@ -498,25 +503,7 @@ impl<const N: usize> Lookahead<N> {
         // taken; the bound at travel U is S·U − W.
         let mut sum = n.turn.map(i64::from);
         let mut weighted = [0i64; 3];
-        // |d_a| of the outgoing segment (Q14, rounded up; 1 if it has no
-        // length): every segment the stencil reaches has
-        // |d_a| <= out_a + S_a (its direction is the outgoing one plus the
-        // direction changes in between).
-        let out = match self.nodes.get(i + 1) {
-            Some(m) if m.s > n.s => {
-                let (p, q) = (n.pos.to_bits(), m.pos.to_bits());
-                let len = (m.s - n.s) as u64;
-                // In 32 bits (the hardware divide): the length scaled to at
-                // most 2^17, each component rounded up, the length down.
-                let k = (64 - len.leading_zeros()).saturating_sub(17);
-                let l32 = (len >> k) as u32;
-                zip3(p, q, |p, q| {
-                    let c = (q.saturating_sub(p).unsigned_abs() >> k).min(1 << 17) as u32 + 1;
-                    i64::from((c << 14).checked_div(l32).unwrap_or(1 << 14)) + 1
-                })
-            }
-            _ => [1 << 14; 3],
-        };
+        let out = self.out_dir(i);
         let (mut left, mut right) = (i.checked_sub(1), i + 1);
         loop {
             // The nearer of the next vertices on either side, within reach.
@@ -577,6 +564,155 @@ impl<const N: usize> Lookahead<N> {
         u
     }
 
+    /// `|d_a|` of the segment leaving node `i` (Q14, rounded up; 1 if it
+    /// has no length): every segment a stencil around the node reaches has
+    /// `|d_a| <= out_a + S_a` (its direction is the outgoing one plus the
+    /// direction changes `S_a` in between).
+    fn out_dir(&self, i: usize) -> [i64; 3] {
+        match (self.nodes.get(i), self.nodes.get(i + 1)) {
+            (Some(n), Some(m)) if m.s > n.s => {
+                let (p, q) = (n.pos.to_bits(), m.pos.to_bits());
+                let len = (m.s - n.s) as u64;
+                // In 32 bits (the hardware divide): the length scaled to at
+                // most 2^17, each component rounded up, the length down.
+                let k = (64 - len.leading_zeros()).saturating_sub(17);
+                let l32 = (len >> k) as u32;
+                zip3(p, q, |p, q| {
+                    let c = (q.saturating_sub(p).unsigned_abs() >> k).min(1 << 17) as u32 + 1;
+                    i64::from((c << 14).checked_div(l32).unwrap_or(1 << 14)) + 1
+                })
+            }
+            _ => [1 << 14; 3],
+        }
+    }
+
+    /// With the commanded positions averaged over `n > 1` ticks: the
+    /// largest speed at node `i` (at most its ceiling so far and the feed
+    /// limit) that passes [`Self::window_ok`], by bisection (the test is
+    /// monotone in the speed).
+    #[inline(never)]
+    fn window_limit(&self, i: usize) -> i64 {
+        let hi = self
+            .nodes
+            .get(i)
+            .map_or(0, |n| ld(n.ceil))
+            .min(self.lim.feed_max);
+        if self.window_ok(i, hi) {
+            return hi;
+        }
+        let (mut lo, mut hi) = (0, hi);
+        for _ in 0..WINDOW_BISECTIONS {
+            let mid = lo + (hi - lo) / 2;
+            if self.window_ok(i, mid) {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        lo
+    }
+
+    /// Whether passing node `i` at speed `u` (travel per tick) keeps the
+    /// averaged positions within the per-axis acceleration and within the
+    /// chord tolerance of the polyline (module docs of [`super`],
+    /// "Smoothing"). Within the window the speed is taken as at most
+    /// `U = u + m` (the window margin). The average of `n` ticks' second
+    /// differences weighs a vertex at distance `e` from the window's centre
+    /// by a trapezoid (the mean of `n` hats `(U − |e − jU|)⁺`): `U/n` up to
+    /// `(n − 1)·U/2`, zero from `(n + 1)·U/2`. Summed over vertices it is
+    /// piecewise linear, concave only at the trapezoids' upper corners, so
+    /// its largest values lie there: the node checks its own two corners,
+    /// `s_i ± (n − 1)·U/2`, where a vertex `D` away on the same side weighs
+    /// `min(U, n·U − D)⁺` and one on the other side `(U − D)⁺`
+    /// (both times `n`; the node's own vertex weighs `u`, the step that
+    /// crosses it): `Σ_k |Δd_k,a|·w_k <= n·B_a` at each corner, with
+    /// `B_a` the axis' corner share. Every term grows with `U`.
+    /// The deviation of an average of `n` points on the polyline from it
+    /// is at most `g_n·U·‖Δd‖` at a single vertex in the window's middle
+    /// (`g_n = ⌊n²/4⌋/(2n)`: the mean distance of the points beyond the
+    /// middle, per `U`), falling linearly to zero where the vertex leaves
+    /// the window (`(n − 1)·U/2` away); summed over the vertices:
+    /// `g_n·Σ_k ‖Δd_k‖·(U_dev − 2δ_k/(n − 1))⁺ <= δ`, with the points'
+    /// spacing `U_dev = u + (2n − 3)·ρA/2` (within `n − 1` steps of the
+    /// crossing). `‖Δd‖` is bounded by the largest component plus half the
+    /// others.
+    #[inline(never)]
+    fn window_ok(&self, i: usize, u: i64) -> bool {
+        let lim = &self.lim;
+        let Some(node) = self.nodes.get(i) else {
+            return false;
+        };
+        let n = i64::from(lim.smoothing);
+        let ue = u.saturating_add(lim.window_margin);
+        let far = ue.saturating_mul(n);
+        // The node's own vertex weighs the step that crosses it, taken as
+        // `u` (as the single-tick corner limit takes it: the change of speed
+        // within the tick is neglected). The deviation's points lie within
+        // `n − 1` steps of that one: `U_dev = u + (2n − 3)·ρA/2`.
+        let own = u;
+        let u_dev = u.saturating_add((2 * n - 3) * lim.accel / 2);
+        // Per axis: the demand at the corner ahead and behind, and Σ|Δd|
+        // of the vertices counted; Σ‖Δd‖·weight for the deviation.
+        let (mut ahead, mut behind, mut sum) = ([0i64; 3], [0i64; 3], [0i64; 3]);
+        let mut dev: i64 = 0;
+        let mut count = |d: i64, turn: &[u16; 3], is_ahead: bool| {
+            let cap = if d == 0 { own } else { ue };
+            let same = far.saturating_sub(d).min(cap).max(0);
+            let other = cap.saturating_sub(d).max(0);
+            let (wa, wb) = if is_ahead {
+                (same, other)
+            } else {
+                (other, same)
+            };
+            for (((&t, ah), bh), sm) in turn
+                .iter()
+                .zip(ahead.iter_mut())
+                .zip(behind.iter_mut())
+                .zip(sum.iter_mut())
+            {
+                let t = i64::from(t);
+                *ah = ah.saturating_add((t * wa) >> 14);
+                *bh = bh.saturating_add((t * wb) >> 14);
+                *sm += t;
+            }
+            // `(n − 1)·(U_dev − 2δ/(n − 1))⁺`, without a division.
+            let wd = u_dev.saturating_mul(n - 1).saturating_sub(2 * d);
+            if wd > 0 {
+                dev = dev.saturating_add((l2_bound(turn) * wd) >> 14);
+            }
+        };
+        count(0, &node.turn, true);
+        let mut k = i;
+        while k > 0 {
+            k -= 1;
+            let Some(m) = self.nodes.get(k) else { break };
+            let d = node.s - m.s;
+            if d > far {
+                break;
+            }
+            count(d, &m.turn, false);
+        }
+        let mut k = i + 1;
+        while let Some(m) = self.nodes.get(k) {
+            let d = m.s - node.s;
+            if d > far {
+                break;
+            }
+            count(d, &m.turn, true);
+            k += 1;
+        }
+        let g = (n * n / 4) as i128;
+        if dev as i128 * g > 2 * n as i128 * (n - 1) as i128 * lim.chord as i128 {
+            return false;
+        }
+        let share = corner_share(lim, self.out_dir(i), sum);
+        ahead
+            .iter()
+            .zip(behind.iter())
+            .zip(share.iter())
+            .all(|((&ah, &bh), &c)| ah.max(bh) <= c.saturating_mul(n))
+    }
+
     /// The cap of the segment from node `i` to `i + 1` (both ceilings final).
     fn set_cap(&mut self, i: usize) {
         let (Some(a), Some(b)) = (self.nodes.get(i).copied(), self.nodes.get(i + 1).copied())
@@ -584,7 +720,7 @@ impl<const N: usize> Lookahead<N> {
             return;
         };
         let mut c = ld(a.cap);
-        if b.s - a.s < self.lim.reach {
+        if b.s - a.s < self.lim.cap_reach {
             // A short segment lies inside its end points' corner reach.
             if !self.is_path_start(i) {
                 c = c.min(ld(a.ceil));
@@ -707,6 +843,18 @@ fn axis_share(tangential: i64, axis: i64, fixed: i64, out: i64, sum: i64) -> i64
     // τ <= 2^14 (Q14): the product fits 64 bits.
     let tau = out.saturating_add(sum).min(1 << 14);
     (axis - ((tangential * tau) >> 14)).max(fixed)
+}
+
+/// Halvings of [`Lookahead::window_limit`]'s speed range.
+const WINDOW_BISECTIONS: usize = 12;
+
+/// An upper bound of the Euclidean length of a direction change (Q14):
+/// its largest component plus half the other two (`a >= b, c` gives
+/// `(a + (b + c)/2)² >= a² + b² + c²`).
+fn l2_bound(t: &[u16; 3]) -> i64 {
+    let [x, y, z] = t.map(i64::from);
+    let m = x.max(y).max(z);
+    m + (x + y + z - m + 1) / 2
 }
 
 /// The speed allowed by per-axis limits along direction `d` (Q30 unit).

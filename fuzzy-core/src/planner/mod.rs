@@ -86,6 +86,40 @@
 //! is dropped (later ceilings stay a tick's travel short of it): the tool
 //! stops at each such point but never stalls.
 //!
+//! # Smoothing (corner blending)
+//! With `smoothing_ticks = n > 1` the commanded position is the mean of the
+//! executor's last `n` positions (`smoothing.rs`: a moving-average FIR
+//! filter on the interpolated positions, as Klipper's input shaper and
+//! axis smoothing weigh the motion over a time window,
+//! `klippy/chelper/kin_shaper.c`, `kin_smooth_axis.c`; the box itself is
+//! the linear "acc/dec after interpolation" of FANUC-style controls, whose
+//! contour error Dat & Phuc 2024 analyse; here its deviation is bounded in
+//! the lookahead instead of predicted afterwards). A corner is then turned over
+//! `n` ticks instead of one, so it may be passed up to `n` times faster for
+//! the same per-axis acceleration, and the tool cuts it by a bounded
+//! amount. The output's second and third differences are means of the
+//! executor's, so every bound of the executor's positions still holds; the
+//! direction-change ceiling is replaced by the window test of
+//! `Lookahead::window_ok` (per axis: the mean of `n` ticks' hats is a
+//! trapezoid, checked at its corners `s_i ± (n − 1)·U/2`; and the blend's
+//! deviation from the polyline `g_n·Σ‖Δd_k‖·(U − 2δ_k/(n − 1))⁺ <= δ`, the
+//! chord tolerance, `g_n = ⌊n²/4⌋/(2n)`), solved for the speed by
+//! bisection. A vertex weighs the step that crosses it (the sum of its hats
+//! over the ticks is that step): the node's own taken as `u` (the change
+//! of speed within a tick neglected, as in the single-tick corner limit),
+//! its neighbours' within the window (`n + 1` steps) at most
+//! `U = u + n·ρA` (the window margin); the deviation's points lie within
+//! `n − 1` steps of the crossing, `U_dev = u + (2n − 3)·ρA/2` for every
+//! vertex. The deviation kernel is
+//! exact for a single vertex and on a densely sampled curve; for vertices
+//! closer than the window it is checked, not proven (the property tests
+//! hold every commanded position within the tolerance of the polyline).
+//! The corner reach grows to `(n + 1)` ticks at the maximum feed plus the
+//! margin. With smoothing the position trails the tick's arc length, speed
+//! and acceleration (the executor's) by `(n − 1)/2` ticks, and a stop ends
+//! (`MotionState::Done`, [`Motion::at_rest`]) only when the mean has
+//! reached the point exactly (`n − 1` ticks after the executor).
+//!
 //! # Envelope (backward pass)
 //! `T_i = min(ceilings, caps, √(T_{i+1}² + 2·D_env·L_i))`,
 //! `D_env = 0.95·ρ·A`: from `T_i` every later ceiling stays reachable with
@@ -166,8 +200,9 @@ mod executor;
 mod lookahead;
 mod motion;
 mod q;
+mod smoothing;
 
-pub use config::{ConfigError, MotionConfig};
+pub use config::{ConfigError, MotionConfig, SMOOTHING_MAX};
 pub use executor::{MotionState, Tick};
 pub use lookahead::{MotionError, MotionPoint, PlannedPoint};
 pub use motion::Motion;

@@ -7,7 +7,8 @@
 use super::config::{ConfigError, MotionConfig};
 use super::executor::Executor;
 use super::lookahead::Lookahead;
-use super::{MotionError, MotionPoint, PlannedPoint, Tick};
+use super::smoothing::Smoother;
+use super::{MotionError, MotionPoint, MotionState, PlannedPoint, Tick};
 use crate::units::{FeedMmPerMin, SpeedMmPerTick};
 
 /// The streaming velocity planner and interpolation executor for up to `N`
@@ -16,6 +17,7 @@ use crate::units::{FeedMmPerMin, SpeedMmPerTick};
 pub struct Motion<const N: usize> {
     plan: Lookahead<N>,
     exec: Executor,
+    smooth: Smoother,
 }
 
 impl<const N: usize> Motion<N> {
@@ -28,8 +30,10 @@ impl<const N: usize> Motion<N> {
     pub fn new(config: MotionConfig) -> Result<Self, ConfigError> {
         #[allow(clippy::let_unit_value)]
         let () = Self::VALID;
+        let lim = config.compile()?;
         Ok(Motion {
-            plan: Lookahead::new(config.compile()?),
+            smooth: Smoother::new(lim.smoothing),
+            plan: Lookahead::new(lim),
             exec: Executor::default(),
         })
     }
@@ -55,10 +59,10 @@ impl<const N: usize> Motion<N> {
         self.plan.free()
     }
 
-    /// Whether the executor has no motion left (idle, starved at rest, held
-    /// at rest, or done).
+    /// Whether the tool has no motion left (idle, starved at rest, held
+    /// at rest, or done), the smoothed position included.
     pub fn at_rest(&self) -> bool {
-        self.exec.at_rest()
+        self.exec.at_rest() && self.smooth.settled()
     }
 
     /// A speed per tick (as in [`Tick::speed`]) in mm/min.
@@ -106,12 +110,27 @@ impl<const N: usize> Motion<N> {
         self.plan.end_path();
     }
 
-    /// One interpolation tick.
+    /// One interpolation tick. With smoothing the position is the mean of
+    /// the executor's last positions, and the tick's arc length, speed and
+    /// acceleration are the executor's (ahead of the position by half the
+    /// window); the state stays `Moving` until the mean has caught up.
     pub fn tick(&mut self) -> Tick {
         self.unstall();
-        let state = self.exec.advance(&self.plan);
+        let mut state = self.exec.advance(&self.plan);
         self.drop_passed();
-        let pos = self.exec.position(&self.plan);
+        let raw = self.exec.position(&self.plan);
+        if self.plan.len() == 0 {
+            self.smooth.reset();
+        }
+        let pos = self.smooth.filter(raw);
+        if !self.smooth.settled()
+            && matches!(
+                state,
+                MotionState::Done | MotionState::Starved | MotionState::Idle
+            )
+        {
+            state = MotionState::Moving;
+        }
         self.exec.output(pos, state)
     }
 

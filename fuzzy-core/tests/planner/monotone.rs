@@ -99,6 +99,7 @@ fn limits() -> impl Strategy<Value = MotionConfig> {
                 jerk_max_mm_s3: 10f64.powf(log_jerk) as u32,
                 chord_tolerance_mm: fixed::types::I32F32::from_num(chord_um as f64 * 1e-3),
                 tangential_share: Fx::from_num(share as f64 / 100.0),
+                smoothing_ticks: 1,
             },
         )
 }
@@ -445,6 +446,7 @@ fn cfg_of(
         jerk_max_mm_s3: jerk,
         chord_tolerance_mm: fixed::types::I32F32::from_num(0.001),
         tangential_share: Fx::from_num(share),
+        smoothing_ticks: 1,
     }
 }
 

@@ -57,6 +57,9 @@ pub struct PlannerSettings {
     /// Share ρ of each axis' acceleration given to tangential acceleration
     /// (the rest is kept for changes of direction), `0 < ρ < 1`.
     pub tangential_share: f64,
+    /// Ticks the commanded position is averaged over (1 = off, up to 8):
+    /// corners blended within the chord tolerance and passed faster.
+    pub smoothing_ticks: u8,
     /// Lookahead buffer, points (one of [`SUPPORTED_BUFFERS`]).
     pub buffer_points: usize,
 }
@@ -79,6 +82,7 @@ impl PlannerSettings {
             // To the nanometre (the Q32 value of 1 µm prints as 0.00099999993).
             chord_tolerance_mm: (c.chord_tolerance_mm.to_num::<f64>() * 1e9).round() / 1e9,
             tangential_share: c.tangential_share.to_num(),
+            smoothing_ticks: c.smoothing_ticks,
             buffer_points,
         }
     }
@@ -95,6 +99,7 @@ impl PlannerSettings {
             // depend on `fixed` itself).
             chord_tolerance_mm: CurvaturePerMm::from_f64(self.chord_tolerance_mm).0,
             tangential_share: Fx::saturating_from_num(self.tangential_share),
+            smoothing_ticks: self.smoothing_ticks,
         }
     }
 
