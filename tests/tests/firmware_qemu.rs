@@ -1267,6 +1267,48 @@ fn settings_are_read_and_written_over_the_link() {
 /// with the path index the tool had reached, at rest at the end of the path
 /// before it (Grbl's spindle sync), the second path only after the
 /// spin-up delay; the motion stays bit-exact.
+/// Corner smoothing set over the link (`$208`): a window too long for the
+/// chord tolerance is refused, two ticks are taken, and a zigzag of sharp
+/// corners runs with them bit for bit as the host replays it (the replay
+/// reads `$208` back), within every limit.
+#[test]
+fn corner_smoothing_set_over_the_link_runs_bit_for_bit() {
+    if !qemu_available() {
+        return;
+    }
+    use link::{DeviceMsg, StoreResult};
+    let mut fw = Firmware::start("smoothing");
+    let deadline = std::time::Instant::now() + Duration::from_secs(5);
+    while !fw
+        .rec
+        .machine
+        .contains(&DeviceMsg::Stored(StoreResult::Corrupt))
+    {
+        assert!(std::time::Instant::now() < deadline, "{:?}", fw.rec.machine);
+        fw.pump(Duration::from_millis(20));
+    }
+    assert_eq!(fw.get_setting(208), Ok(1), "off by default");
+    assert_eq!(fw.set_setting(208, 3), Err(ErrorCode::OutOfRange));
+    assert_eq!(fw.set_setting(208, 2), Ok(2));
+    let pts: Vec<PathPoint> = (0..60)
+        .map(|i| {
+            let y = if i % 2 == 0 { 0.0 } else { 0.2 };
+            PathPoint::at(Point3Mm::from_f64(i as f64 * 0.3, y, 0.0).unwrap())
+        })
+        .collect();
+    let pts = on_grid(&pts);
+    let paths = [Sent::stream(&mut fw, config(), &pts)];
+    fw.end_path();
+    let goal = end_of(&pts);
+    fw.poll_until(Duration::from_millis(20), Duration::from_secs(240), |s| {
+        s.motion == Motion::Idle && s.pos_mm == goal
+    });
+    let config = replay_config(&mut fw);
+    assert_eq!(config.smoothing_ticks, 2);
+    let (rep, _) = verify("smoothing", &mut fw, &paths, 0);
+    assert_eq!(rep.ticks.last().unwrap().pos.to_bits(), goal);
+}
+
 #[test]
 fn spindle_commands_are_reported_at_their_path_index() {
     if !qemu_available() {
