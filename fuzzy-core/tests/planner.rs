@@ -244,21 +244,7 @@ fn assert_physical(name: &str, p: &Peaks, cfg: &MotionConfig) {
 fn assert_on_path(name: &str, ticks: &[T], poly: &[[f64; 3]], tol: f64) {
     let mut seg = 0;
     for (n, t) in ticks.iter().enumerate() {
-        let dist = |i: usize| {
-            let (a, b) = (poly[i], poly[(i + 1).min(poly.len() - 1)]);
-            let ab = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-            let ap = [t.pos[0] - a[0], t.pos[1] - a[1], t.pos[2] - a[2]];
-            let l2: f64 = ab.iter().map(|x| x * x).sum();
-            let u = if l2 > 0.0 {
-                (ap.iter().zip(&ab).map(|(x, y)| x * y).sum::<f64>() / l2).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            (0..3)
-                .map(|q| (ap[q] - u * ab[q]).powi(2))
-                .sum::<f64>()
-                .sqrt()
-        };
+        let dist = |i: usize| segment_distance(poly[i], poly[(i + 1).min(poly.len() - 1)], t.pos);
         let mut best = dist(seg);
         let mut k = seg;
         while best > tol && k + 1 < poly.len() {

@@ -1186,22 +1186,25 @@ fn a_link_e_stop_stops_the_motion_until_unlocked() {
 /// force until the reset). A lower acceleration written at rest shapes the
 /// next path, and the host's replay with the settings read back is still
 /// bit-exact.
+/// Wait (at most 5 s) until the firmware reports `result` for its settings
+/// store (QEMU's flash keeps nothing: `Corrupt` at boot, `WriteFailed` after
+/// a save).
+fn wait_for_store(fw: &mut Firmware, result: link::StoreResult) {
+    let deadline = std::time::Instant::now() + Duration::from_secs(5);
+    while !fw.rec.machine.contains(&link::DeviceMsg::Stored(result)) {
+        assert!(std::time::Instant::now() < deadline, "{:?}", fw.rec.machine);
+        fw.pump(Duration::from_millis(20));
+    }
+}
+
 #[test]
 fn settings_are_read_and_written_over_the_link() {
     if !qemu_available() {
         return;
     }
-    use link::{DeviceMsg, StoreResult};
+    use link::StoreResult;
     let mut fw = Firmware::start("settings");
-    let deadline = std::time::Instant::now() + Duration::from_secs(5);
-    while !fw
-        .rec
-        .machine
-        .contains(&DeviceMsg::Stored(StoreResult::Corrupt))
-    {
-        assert!(std::time::Instant::now() < deadline, "{:?}", fw.rec.machine);
-        fw.pump(Duration::from_millis(20));
-    }
+    wait_for_store(&mut fw, StoreResult::Corrupt);
     assert_eq!(fw.get_setting(120), Ok(2000));
     assert_eq!(
         fw.get_setting(100),
@@ -1218,15 +1221,7 @@ fn settings_are_read_and_written_over_the_link() {
     // Step settings at rest: in force for the next path, no reset.
     assert_eq!(fw.set_setting(100, 80_000), Ok(80_000));
     assert_eq!(fw.set_setting(0, 4_000), Ok(4_000));
-    let deadline = std::time::Instant::now() + Duration::from_secs(5);
-    while !fw
-        .rec
-        .machine
-        .contains(&DeviceMsg::Stored(StoreResult::WriteFailed))
-    {
-        assert!(std::time::Instant::now() < deadline, "{:?}", fw.rec.machine);
-        fw.pump(Duration::from_millis(20));
-    }
+    wait_for_store(&mut fw, StoreResult::WriteFailed);
     assert_eq!(fw.get_setting(121), Ok(500), "in force");
     assert_eq!(fw.machine_status().store, StoreResult::WriteFailed);
     let pts = line(120, 0.5);
@@ -1276,17 +1271,9 @@ fn corner_smoothing_set_over_the_link_runs_bit_for_bit() {
     if !qemu_available() {
         return;
     }
-    use link::{DeviceMsg, StoreResult};
+    use link::StoreResult;
     let mut fw = Firmware::start("smoothing");
-    let deadline = std::time::Instant::now() + Duration::from_secs(5);
-    while !fw
-        .rec
-        .machine
-        .contains(&DeviceMsg::Stored(StoreResult::Corrupt))
-    {
-        assert!(std::time::Instant::now() < deadline, "{:?}", fw.rec.machine);
-        fw.pump(Duration::from_millis(20));
-    }
+    wait_for_store(&mut fw, StoreResult::Corrupt);
     assert_eq!(fw.get_setting(208), Ok(1), "off by default");
     assert_eq!(fw.set_setting(208, 3), Err(ErrorCode::OutOfRange));
     assert_eq!(fw.set_setting(208, 2), Ok(2));

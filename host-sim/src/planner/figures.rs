@@ -447,9 +447,8 @@ mod tests {
     use crate::planner::{motion_points, plan};
     use crate::toolpath::Toolpath;
 
-    #[test]
-    fn a_square_is_within_limits_and_near_its_reference() {
-        // 20 mm square, 90° corners: the corner ceilings bind.
+    /// A 20 mm square: 90° corners between long sides.
+    fn square() -> Toolpath {
         let pts = vec![
             [0.0, 0.0, 0.0],
             [20.0, 0.0, 0.0],
@@ -457,7 +456,13 @@ mod tests {
             [0.0, 20.0, 0.0],
             [0.0, 0.0, 0.0],
         ];
-        let path = Toolpath::from_points("square", pts).unwrap();
+        Toolpath::from_points("square", pts).unwrap()
+    }
+
+    #[test]
+    fn a_square_is_within_limits_and_near_its_reference() {
+        // The corner ceilings bind.
+        let path = square();
         let settings = PlannerSettings::default();
         let mp = motion_points(&path, &[3000.0; 5], &[]).unwrap();
         let run = plan(&mp, &path.lines, &settings).unwrap();
@@ -476,14 +481,7 @@ mod tests {
 
     #[test]
     fn smoothing_keeps_the_limits_and_the_doubled_chord_bound() {
-        let pts = vec![
-            [0.0, 0.0, 0.0],
-            [20.0, 0.0, 0.0],
-            [20.0, 20.0, 0.0],
-            [0.0, 20.0, 0.0],
-            [0.0, 0.0, 0.0],
-        ];
-        let path = Toolpath::from_points("square", pts).unwrap();
+        let path = square();
         let mp = motion_points(&path, &[3000.0; 5], &[]).unwrap();
         let plain = PlannerSettings::default();
         let smooth = PlannerSettings {
