@@ -815,8 +815,23 @@ fn override_changes_are_ramped_within_the_physical_limits() {
 
 #[test]
 fn restart_continues_from_where_the_tool_is() {
-    let cfg = MotionConfig::default();
+    // Without and with smoothing (the mean must have caught up before a
+    // restart is taken, and the next path starts from it).
+    for smoothing_ticks in [1, 2] {
+        restart_from_where_the_tool_is(MotionConfig {
+            smoothing_ticks,
+            ..MotionConfig::default()
+        });
+    }
+}
+
+fn restart_from_where_the_tool_is(cfg: MotionConfig) {
     let ts = ts(&cfg);
+    let off_path = if cfg.smoothing_ticks > 1 {
+        cfg.chord_tolerance_mm.to_num::<f64>() + 1e-6
+    } else {
+        1e-6
+    };
     let mut m: Motion<32> = Motion::new(cfg).unwrap();
     let mut ticks = Vec::new();
     let first = constant(&[[0.0, 0.0, 0.0], [10.0, 0.0, 0.0]], 3000);
@@ -851,10 +866,11 @@ fn restart_continues_from_where_the_tool_is() {
         "restart 1",
         &ticks[..split],
         &[[0.0, 0.0, 0.0], [10.0, 0.0, 0.0]],
-        1e-6,
+        off_path,
     );
     let poly = [[10.0, 0.0, 0.0], [10.0, 5.0, 0.0], [0.0, 5.0, 0.0]];
-    assert_on_path("restart 2", &ticks[split..], &poly, 1e-6);
+    assert_on_path("restart 2", &ticks[split..], &poly, off_path);
+    assert_eq!(ticks[split - 1].pos, [10.0, 0.0, 0.0], "at rest on the end");
 }
 
 #[test]

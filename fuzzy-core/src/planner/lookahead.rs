@@ -21,7 +21,7 @@
 use heapless::Deque;
 
 use super::config::Limits;
-use super::q::{div, mul, reach, sqrt};
+use super::q::{div, mul, reach, sqrt, ONE};
 use crate::scheduler::ScheduledPoint;
 use crate::segment::{zip3, Segment};
 use crate::units::{CurvaturePerMm, FeedMmPerMin, Point3Mm};
@@ -588,33 +588,61 @@ impl<const N: usize> Lookahead<N> {
 
     /// With the commanded positions averaged over `n > 1` ticks: the
     /// largest speed at node `i` (at most its ceiling so far and the feed
-    /// limit) that passes [`Self::window_ok`], by bisection (the test is
-    /// monotone in the speed).
+    /// limit) that passes the window test, [`Self::window_slack`] `>= 0`.
+    /// The slack is piecewise linear and decreasing in the speed, so the
+    /// root is bracketed and found by regula falsi with the Illinois
+    /// halving (each step the secant of the bracket's ends, kept a
+    /// sixteenth of the bracket inside it; a few steps where bisection
+    /// needs a dozen). Only a speed the test passed is returned.
     #[inline(never)]
     fn window_limit(&self, i: usize) -> i64 {
-        let hi = self
+        let top = self
             .nodes
             .get(i)
             .map_or(0, |n| ld(n.ceil))
             .min(self.lim.feed_max);
-        if self.window_ok(i, hi) {
-            return hi;
+        let mut f_hi = self.window_slack(i, top);
+        if f_hi >= 0 {
+            return top;
         }
-        let (mut lo, mut hi) = (0, hi);
-        for _ in 0..WINDOW_BISECTIONS {
-            let mid = lo + (hi - lo) / 2;
-            if self.window_ok(i, mid) {
-                lo = mid;
+        let mut f_lo = self.window_slack(i, 0);
+        if f_lo < 0 {
+            return 0;
+        }
+        let (mut lo, mut hi) = (0i64, top);
+        let resolution = (top >> 12).max(1);
+        let mut last_side = 0i8;
+        for _ in 0..WINDOW_STEPS {
+            let span = hi - lo;
+            if span <= resolution {
+                break;
+            }
+            // f_lo >= 0 > f_hi: the secant's root, as a fraction of the span.
+            let t = div(f_lo, f_lo.saturating_sub(f_hi)).clamp(ONE / 16, ONE - ONE / 16);
+            let x = lo + mul(span, t).clamp(1, span - 1);
+            let f = self.window_slack(i, x);
+            if f >= 0 {
+                lo = x;
+                f_lo = f;
+                if last_side == 1 {
+                    f_hi /= 2; // Illinois: the end kept twice weighs less
+                }
+                last_side = 1;
             } else {
-                hi = mid;
+                hi = x;
+                f_hi = f;
+                if last_side == -1 {
+                    f_lo /= 2;
+                }
+                last_side = -1;
             }
         }
         lo
     }
 
-    /// Whether passing node `i` at speed `u` (travel per tick) keeps the
+    /// How far passing node `i` at speed `u` (travel per tick) keeps the
     /// averaged positions within the per-axis acceleration and within the
-    /// chord tolerance of the polyline (module docs of [`super`],
+    /// chord tolerance of the polyline (`>= 0`: within; module docs of [`super`],
     /// "Smoothing"). Within the window the speed is taken as at most
     /// `U = u + m` (the window margin). The average of `n` ticks' second
     /// differences weighs a vertex at distance `e` from the window's centre
@@ -637,10 +665,10 @@ impl<const N: usize> Lookahead<N> {
     /// crossing). `‖Δd‖` is bounded by the largest component plus half the
     /// others.
     #[inline(never)]
-    fn window_ok(&self, i: usize, u: i64) -> bool {
+    fn window_slack(&self, i: usize, u: i64) -> i64 {
         let lim = &self.lim;
         let Some(node) = self.nodes.get(i) else {
-            return false;
+            return -1;
         };
         let n = i64::from(lim.smoothing);
         let ue = u.saturating_add(lim.window_margin);
@@ -701,16 +729,20 @@ impl<const N: usize> Lookahead<N> {
             count(d, &m.turn, true);
             k += 1;
         }
+        // Each condition's budget less its demand (mm; the deviation's
+        // scaled by `2n(n − 1)`), the least of them.
         let g = (n * n / 4) as i128;
-        if dev as i128 * g > 2 * n as i128 * (n - 1) as i128 * lim.chord as i128 {
-            return false;
-        }
+        let dev_slack = 2 * n as i128 * (n - 1) as i128 * lim.chord as i128 - dev as i128 * g;
         let share = corner_share(lim, self.out_dir(i), sum);
         ahead
             .iter()
             .zip(behind.iter())
             .zip(share.iter())
-            .all(|((&ah, &bh), &c)| ah.max(bh) <= c.saturating_mul(n))
+            .map(|((&ah, &bh), &c)| c.saturating_mul(n).saturating_sub(ah.max(bh)))
+            .fold(
+                dev_slack.clamp(i64::MIN as i128, i64::MAX as i128) as i64,
+                i64::min,
+            )
     }
 
     /// The cap of the segment from node `i` to `i + 1` (both ceilings final).
@@ -845,8 +877,8 @@ fn axis_share(tangential: i64, axis: i64, fixed: i64, out: i64, sum: i64) -> i64
     (axis - ((tangential * tau) >> 14)).max(fixed)
 }
 
-/// Halvings of [`Lookahead::window_limit`]'s speed range.
-const WINDOW_BISECTIONS: usize = 12;
+/// Most steps of [`Lookahead::window_limit`]'s root search.
+const WINDOW_STEPS: usize = 10;
 
 /// An upper bound of the Euclidean length of a direction change (Q14):
 /// its largest component plus half the other two (`a >= b, c` gives
