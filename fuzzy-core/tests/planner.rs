@@ -239,6 +239,24 @@ fn assert_physical(name: &str, p: &Peaks, cfg: &MotionConfig) {
     );
 }
 
+/// How far a commanded position may lie from the polyline, mm: on it
+/// (rounding), or within the chord tolerance with smoothing.
+fn off_path(cfg: &MotionConfig) -> f64 {
+    if cfg.smoothing_ticks > 1 {
+        cfg.chord_tolerance_mm.to_num::<f64>() + 1e-6
+    } else {
+        1e-6
+    }
+}
+
+/// Without and with smoothing over two ticks.
+fn with_and_without_smoothing() -> [MotionConfig; 2] {
+    [1, 2].map(|smoothing_ticks| MotionConfig {
+        smoothing_ticks,
+        ..MotionConfig::default()
+    })
+}
+
 /// Every commanded position lies on the polyline (within `tol` mm), and
 /// they advance along it.
 fn assert_on_path(name: &str, ticks: &[T], poly: &[[f64; 3]], tol: f64) {
@@ -719,7 +737,12 @@ fn short_straight_segments_hold_the_programmed_feed() {
 
 #[test]
 fn feed_hold_stops_on_the_path_and_resumes() {
-    let cfg = MotionConfig::default();
+    for cfg in with_and_without_smoothing() {
+        feed_hold_stops_and_resumes(cfg);
+    }
+}
+
+fn feed_hold_stops_and_resumes(cfg: MotionConfig) {
     let xyz = shape("trident");
     let points = scheduled(&xyz, 5000);
     let (_, accel) = whole_plan(&points, cfg);
@@ -746,14 +769,19 @@ fn feed_hold_stops_on_the_path_and_resumes() {
         held_at - 700
     );
     assert_physical("feed hold", &p, &cfg);
-    assert_on_path("feed hold", &ticks, &xyz, 1e-6);
+    assert_on_path("feed hold", &ticks, &xyz, off_path(&cfg));
 }
 
 #[test]
 fn underrun_ends_in_a_controlled_stop_and_resumes_without_a_jump() {
+    for cfg in with_and_without_smoothing() {
+        underrun_stops_and_resumes(cfg);
+    }
+}
+
+fn underrun_stops_and_resumes(cfg: MotionConfig) {
     // Points arrive slower than the tool moves: one 0.5 mm segment every
     // 12 ticks at 5000 mm/min (83 mm/s wants one every 6 ticks).
-    let cfg = MotionConfig::default();
     let xyz: Vec<[f64; 3]> = (0..=200).map(|i| [i as f64 * 0.5, 0.0, 0.0]).collect();
     let points = constant(&xyz, 5000);
     let ts = ts(&cfg);
@@ -777,13 +805,18 @@ fn underrun_ends_in_a_controlled_stop_and_resumes_without_a_jump() {
     let p = peaks(&ticks, &cfg, accel);
     eprintln!("underrun: {starved} ticks starved, {p:?}");
     assert_physical("underrun", &p, &cfg);
-    assert_on_path("underrun", &ticks, &xyz, 1e-6);
+    assert_on_path("underrun", &ticks, &xyz, off_path(&cfg));
     assert_eq!(ticks.last().unwrap().point, 200);
 }
 
 #[test]
 fn override_changes_are_ramped_within_the_physical_limits() {
-    let cfg = MotionConfig::default();
+    for cfg in with_and_without_smoothing() {
+        override_ramps_within_the_limits(cfg);
+    }
+}
+
+fn override_ramps_within_the_limits(cfg: MotionConfig) {
     let xyz = shape("butterfly");
     let points = scheduled(&xyz, 5000);
     let (_, accel) = whole_plan(&points, cfg);
@@ -800,7 +833,7 @@ fn override_changes_are_ramped_within_the_physical_limits() {
         ticks.len()
     );
     assert_physical("override", &p, &cfg);
-    assert_on_path("override", &ticks, &xyz, 1e-6);
+    assert_on_path("override", &ticks, &xyz, off_path(&cfg));
     // Once the ramp to 40 % is over, the tool runs at no more than 40 % of
     // the maximum feed until the override is raised again.
     let slow = ticks[1500..3000].iter().map(|t| t.v).fold(0.0, f64::max) * 60.0;
@@ -817,21 +850,14 @@ fn override_changes_are_ramped_within_the_physical_limits() {
 fn restart_continues_from_where_the_tool_is() {
     // Without and with smoothing (the mean must have caught up before a
     // restart is taken, and the next path starts from it).
-    for smoothing_ticks in [1, 2] {
-        restart_from_where_the_tool_is(MotionConfig {
-            smoothing_ticks,
-            ..MotionConfig::default()
-        });
+    for cfg in with_and_without_smoothing() {
+        restart_from_where_the_tool_is(cfg);
     }
 }
 
 fn restart_from_where_the_tool_is(cfg: MotionConfig) {
     let ts = ts(&cfg);
-    let off_path = if cfg.smoothing_ticks > 1 {
-        cfg.chord_tolerance_mm.to_num::<f64>() + 1e-6
-    } else {
-        1e-6
-    };
+    let off_path = off_path(&cfg);
     let mut m: Motion<32> = Motion::new(cfg).unwrap();
     let mut ticks = Vec::new();
     let first = constant(&[[0.0, 0.0, 0.0], [10.0, 0.0, 0.0]], 3000);
@@ -1023,12 +1049,7 @@ proptest! {
         let p = peaks(&ticks, &cfg, accel);
         assert_physical("random", &p, &cfg);
         // Smoothing blends corners within the chord tolerance.
-        let off_path = if cfg.smoothing_ticks > 1 {
-            cfg.chord_tolerance_mm.to_num::<f64>() + 1e-6
-        } else {
-            1e-6
-        };
-        assert_on_path("random", &ticks, &pts, off_path);
+        assert_on_path("random", &ticks, &pts, off_path(&cfg));
         let end = pts.last().unwrap();
         let last = ticks.last().unwrap().pos;
         for k in 0..3 {
