@@ -393,7 +393,8 @@ impl<const N: usize> Lookahead<N> {
     /// is not complete ([`Lookahead::stalled`]), no faster than a tick's
     /// travel short of the newest node, whose turn is not known yet
     /// (vertices farther than a tick's travel do not count: module docs,
-    /// "Ceilings").
+    /// "Ceilings"; with smoothing, than the window's reach:
+    /// [`Self::short_of`]).
     fn finalize(&mut self, all: bool, force: bool) {
         let reach = self.lim.reach;
         loop {
@@ -425,9 +426,13 @@ impl<const N: usize> Lookahead<N> {
                     .get(i)
                     .map_or(0, |n| ld(n.ceil))
                     .min(turn)
-                    .min(if forced { newest_s - si } else { i64::MAX })
+                    .min(if forced {
+                        self.short_of(newest_s - si)
+                    } else {
+                        i64::MAX
+                    })
                     // Nor does a vertex dropped within the reach behind.
-                    .min(si.saturating_sub(self.dropped_s))
+                    .min(self.short_of(si.saturating_sub(self.dropped_s)))
                     .max(self.lim.corner_creep)
             };
             if let Some(n) = self.nodes.get_mut(i) {
@@ -444,6 +449,18 @@ impl<const N: usize> Lookahead<N> {
             if forced {
                 break;
             }
+        }
+    }
+
+    /// The largest speed whose corner test reaches less than `d` mm: a
+    /// tick's travel (`d` itself), or with smoothing the window's reach
+    /// `n·(u + m) < d`.
+    fn short_of(&self, d: i64) -> i64 {
+        let n = i64::from(self.lim.smoothing);
+        if n > 1 {
+            (d / n).saturating_sub(self.lim.window_margin).max(0)
+        } else {
+            d
         }
     }
 
