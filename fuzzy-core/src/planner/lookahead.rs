@@ -618,11 +618,13 @@ impl<const N: usize> Lookahead<N> {
             .get(i)
             .map_or(0, |n| ld(n.ceil))
             .min(self.lim.feed_max);
-        let mut f_hi = self.window_slack(i, top);
+        // The outgoing direction does not depend on the speed: once.
+        let out = self.out_dir(i);
+        let mut f_hi = self.window_slack(i, out, top);
         if f_hi >= 0 {
             return top;
         }
-        let mut f_lo = self.window_slack(i, 0);
+        let mut f_lo = self.window_slack(i, out, 0);
         if f_lo < 0 {
             return 0;
         }
@@ -637,7 +639,7 @@ impl<const N: usize> Lookahead<N> {
             // f_lo >= 0 > f_hi: the secant's root, as a fraction of the span.
             let t = div(f_lo, f_lo.saturating_sub(f_hi)).clamp(ONE / 16, ONE - ONE / 16);
             let x = lo + mul(span, t).clamp(1, span - 1);
-            let f = self.window_slack(i, x);
+            let f = self.window_slack(i, out, x);
             if f >= 0 {
                 lo = x;
                 f_lo = f;
@@ -681,8 +683,9 @@ impl<const N: usize> Lookahead<N> {
     /// spacing `U_dev = u + (2n − 3)·ρA/2` (within `n − 1` steps of the
     /// crossing). `‖Δd‖` is bounded by the largest component plus half the
     /// others.
+    /// `out` is [`Self::out_dir`] of the node.
     #[inline(never)]
-    fn window_slack(&self, i: usize, u: i64) -> i64 {
+    fn window_slack(&self, i: usize, out: [i64; 3], u: i64) -> i64 {
         let lim = &self.lim;
         let Some(node) = self.nodes.get(i) else {
             return -1;
@@ -694,14 +697,13 @@ impl<const N: usize> Lookahead<N> {
         // `u` (as the single-tick corner limit takes it: the change of speed
         // within the tick is neglected). The deviation's points lie within
         // `n − 1` steps of that one: `U_dev = u + (2n − 3)·ρA/2`.
-        let own = u;
         let u_dev = u.saturating_add((2 * n - 3) * lim.accel / 2);
         // Per axis: the demand at the corner ahead and behind, and Σ|Δd|
         // of the vertices counted; Σ‖Δd‖·weight for the deviation.
         let (mut ahead, mut behind, mut sum) = ([0i64; 3], [0i64; 3], [0i64; 3]);
         let mut dev: i64 = 0;
         let mut count = |d: i64, turn: &[u16; 3], is_ahead: bool| {
-            let cap = if d == 0 { own } else { ue };
+            let cap = if d == 0 { u } else { ue };
             let same = far.saturating_sub(d).min(cap).max(0);
             let other = cap.saturating_sub(d).max(0);
             let (wa, wb) = if is_ahead {
@@ -750,7 +752,7 @@ impl<const N: usize> Lookahead<N> {
         // scaled by `2n(n − 1)`), the least of them.
         let g = (n * n / 4) as i128;
         let dev_slack = 2 * n as i128 * (n - 1) as i128 * lim.chord as i128 - dev as i128 * g;
-        let share = corner_share(lim, self.out_dir(i), sum);
+        let share = corner_share(lim, out, sum);
         ahead
             .iter()
             .zip(behind.iter())
