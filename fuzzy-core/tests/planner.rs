@@ -286,12 +286,23 @@ fn assert_on_path(name: &str, ticks: &[T], poly: &[[f64; 3]], tol: f64) {
 
 /// The planned ceilings and caps of the whole path (a buffer holding it all).
 fn whole_plan(points: &[MotionPoint], cfg: MotionConfig) -> (Vec<PlannedPoint>, f64) {
-    let mut all: Box<Motion<16384>> = Box::new(Motion::new(cfg).unwrap());
-    for p in points {
-        all.push(*p).unwrap();
-    }
-    all.end_path();
-    (all.planned().collect(), all.accel_limit_mm_s2().to_num())
+    // A 0.9 MB planner, built on the stack before it is boxed: copies of it
+    // exceed a test thread's 2 MB in an unoptimised build.
+    std::thread::scope(|s| {
+        std::thread::Builder::new()
+            .stack_size(16 << 20)
+            .spawn_scoped(s, || {
+                let mut all: Box<Motion<16384>> = Box::new(Motion::new(cfg).unwrap());
+                for p in points {
+                    all.push(*p).unwrap();
+                }
+                all.end_path();
+                (all.planned().collect(), all.accel_limit_mm_s2().to_num())
+            })
+            .unwrap()
+            .join()
+            .unwrap()
+    })
 }
 
 struct Figures {

@@ -2,7 +2,7 @@
 //! one interpolation tick at a time, and the commanded position on the
 //! path (module docs of [`super`]: "Executor", "Resolution").
 //!
-//! Input: the [`Lookahead`]'s finalized nodes (read only: the executor never
+//! Input: the [`Plan`]'s finalized nodes (read only: the executor never
 //! changes the plan). Output: a [`Tick`] per call, which the controller's
 //! step generation (`controller/src/steps`) turns into step pulses.
 //!
@@ -14,7 +14,7 @@
 //! - arc length never decreases and never passes the last finalized node;
 //! - the executor changes only its own state (`&mut self`: arc length,
 //!   speed, acceleration, segment); limits and plan are read through
-//!   `&Lookahead` ([`super::Motion::tick`] then lets the buffer drop the
+//!   `&Plan` ([`super::Motion::tick`] then lets the buffer drop the
 //!   nodes left behind).
 //!
 //! The counterpart of Grbl's `stepper.c` (which executes the planned
@@ -22,7 +22,7 @@
 //! per tick against the envelope instead.
 
 use super::brake::{integrate, speed_crossings, Brake};
-use super::lookahead::{ld, Lookahead};
+use super::lookahead::{ld, Plan};
 use super::q::{div, mul, ONE};
 use crate::segment::Segment;
 use crate::units::{AccelMmPerTick2, Point3Mm, SpeedMmPerTick};
@@ -111,7 +111,7 @@ impl Executor {
 
     /// Move the current segment up to where the tool stands (at rest the
     /// ticks do not advance it: past repeated points too).
-    pub(super) fn catch_up<const N: usize>(&mut self, plan: &Lookahead<N>) {
+    pub(super) fn catch_up(&mut self, plan: &Plan) {
         let seg = plan.seg_of(self.seg, self.x);
         if seg != self.seg {
             self.seg = seg;
@@ -148,7 +148,7 @@ impl Executor {
 
     /// Whether the committed stop from `(x, v, a)` on segment `k` stays under
     /// the envelope (module docs, "Executor").
-    fn safe<const N: usize>(&self, plan: &Lookahead<N>, k: usize, x: i64, v: i64, a: i64) -> bool {
+    fn safe(&self, plan: &Plan, k: usize, x: i64, v: i64, a: i64) -> bool {
         let lim = plan.lim();
         let (j, acc) = (lim.jerk, lim.accel);
         if v > plan.env_at(k, x) {
@@ -187,14 +187,7 @@ impl Executor {
     /// there at most `upper`) are all planned, and it passes each binding
     /// one no faster than its envelope (the others are covered by the next
     /// binding node or the end of the stretch: module docs).
-    fn points_ok<const N: usize>(
-        &self,
-        plan: &Lookahead<N>,
-        c: &Stop,
-        t0: i64,
-        t1: i64,
-        upper: i64,
-    ) -> bool {
+    fn points_ok(&self, plan: &Plan, c: &Stop, t0: i64, t1: i64, upper: i64) -> bool {
         let x0 = if t0 > 0 {
             c.x.saturating_add(c.b.walk(t0).2)
         } else {
@@ -224,7 +217,7 @@ impl Executor {
 
     /// One tick of the profile: the jerk chosen, the state integrated, the
     /// segment and the last point reached updated.
-    pub(super) fn advance<const N: usize>(&mut self, plan: &Lookahead<N>) -> MotionState {
+    pub(super) fn advance(&mut self, plan: &Plan) -> MotionState {
         if plan.finalized() < 2 {
             return if plan.ended() && plan.finalized() >= 1 {
                 MotionState::Done
@@ -355,9 +348,9 @@ impl Executor {
     /// forwards, passes the nodes it crosses within their envelope and is
     /// safe.
     #[inline(never)]
-    fn candidate<const N: usize>(
+    fn candidate(
         &self,
-        plan: &Lookahead<N>,
+        plan: &Plan,
         k: usize,
         phases: &[(i64, i64); 2],
     ) -> Option<(i64, i64, i64)> {
@@ -374,7 +367,7 @@ impl Executor {
     /// Whether a last step of `d` onto a stop, then rest, keeps the third
     /// differences of the arc length (the discrete jerk: this step's, the
     /// next tick's and the one after) within the jerk limit.
-    fn last_step_ok<const N: usize>(&self, plan: &Lookahead<N>, d: i64) -> bool {
+    fn last_step_ok(&self, plan: &Plan, d: i64) -> bool {
         let j = plan.lim().jerk;
         let change = d - self.step;
         (change - self.step_change).abs() <= j && (d + change).abs() <= j && d <= j
@@ -388,14 +381,7 @@ impl Executor {
     /// limit on one interval; a concave one that starts under the limit and
     /// rises over it is taken as under it only before the first crossing
     /// (conservative).
-    fn crossings_ok<const N: usize>(
-        &self,
-        plan: &Lookahead<N>,
-        k: usize,
-        phases: &[(i64, i64)],
-        v2: i64,
-        x2: i64,
-    ) -> bool {
+    fn crossings_ok(&self, plan: &Plan, k: usize, phases: &[(i64, i64)], v2: i64, x2: i64) -> bool {
         let jerk = phases.first().map_or(0, |p| p.1);
         let mut vhi = self.v.max(v2);
         if jerk < 0 && self.a > 0 {
@@ -443,7 +429,7 @@ impl Executor {
     }
 
     /// The commanded position: node + direction × offset.
-    pub(super) fn position<const N: usize>(&mut self, plan: &Lookahead<N>) -> Point3Mm {
+    pub(super) fn position(&mut self, plan: &Plan) -> Point3Mm {
         // Scalars, not whole-`Node` or whole-`Point3Mm` copies: those
         // compiled to the image's only `memmove` call (1.5 KB of library
         // code on the target).

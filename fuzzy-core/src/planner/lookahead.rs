@@ -18,7 +18,10 @@
 //! The counterpart of Grbl's `planner.c` (its block buffer and reverse
 //! pass); the corner model is this planner's own (module docs of [`super`]).
 
-use heapless::Deque;
+use core::fmt;
+
+use heapless::deque::DequeInner;
+use heapless::vec::{OwnedVecStorage, VecStorage, ViewVecStorage};
 
 use super::config::Limits;
 use super::q::{div, mul, reach, sqrt, ONE};
@@ -128,12 +131,12 @@ pub(super) fn ld(u: u32) -> i64 {
     (u as i64) << 4
 }
 
-/// The lookahead buffer of up to `N` points with their ceilings, caps and
-/// envelope.
-#[derive(Clone, Debug)]
-pub(super) struct Lookahead<const N: usize> {
+/// The lookahead buffer with its points' ceilings, caps and envelope,
+/// over any buffer size `S` (a [`Buffer`] of `N` points, read and planned
+/// as a [`Plan`], its size a run-time value: the stage's code is compiled
+/// once, in this crate, whatever `N` the caller picks).
+pub(super) struct Lookahead<S: VecStorage<Node> + ?Sized> {
     lim: Limits,
-    nodes: Deque<Node, N>,
     /// Nodes (from the front) whose ceilings are final.
     finalized: usize,
     /// The path was ended: the newest node is the final stop.
@@ -148,23 +151,75 @@ pub(super) struct Lookahead<const N: usize> {
     /// still within the corner reach ([`Lookahead::stalled`]); `i64::MIN`
     /// for none.
     dropped_s: i64,
+    /// The points, oldest first (last: the only field whose size varies).
+    nodes: DequeInner<Node, S>,
 }
 
-impl<const N: usize> Lookahead<N> {
+/// A lookahead of up to `N` points (what [`super::Motion`] holds).
+pub(super) type Buffer<const N: usize> = Lookahead<OwnedVecStorage<Node, N>>;
+
+/// A lookahead of any size, as the stages read and plan it.
+pub(super) type Plan = Lookahead<ViewVecStorage<Node>>;
+
+impl<const N: usize> Buffer<N> {
     /// An empty buffer for the compiled limits.
     pub(super) fn new(lim: Limits) -> Self {
         Lookahead {
             lim,
-            nodes: Deque::new(),
             finalized: 0,
             ended: false,
             last_dir: None,
             override_q16: 1 << 16,
             front_index: 0,
             dropped_s: i64::MIN,
+            nodes: DequeInner::new(),
         }
     }
 
+    /// The buffer with its size erased.
+    #[inline]
+    pub(super) fn plan(&self) -> &Plan {
+        self
+    }
+
+    /// The buffer with its size erased, to plan.
+    #[inline]
+    pub(super) fn plan_mut(&mut self) -> &mut Plan {
+        self
+    }
+}
+
+impl<const N: usize> Clone for Buffer<N> {
+    fn clone(&self) -> Self {
+        Lookahead {
+            lim: self.lim,
+            finalized: self.finalized,
+            ended: self.ended,
+            last_dir: self.last_dir,
+            override_q16: self.override_q16,
+            front_index: self.front_index,
+            dropped_s: self.dropped_s,
+            nodes: self.nodes.clone(),
+        }
+    }
+}
+
+impl<S: VecStorage<Node> + ?Sized> fmt::Debug for Lookahead<S> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Lookahead")
+            .field("lim", &self.lim)
+            .field("finalized", &self.finalized)
+            .field("ended", &self.ended)
+            .field("last_dir", &self.last_dir)
+            .field("override_q16", &self.override_q16)
+            .field("front_index", &self.front_index)
+            .field("dropped_s", &self.dropped_s)
+            .field("nodes", &&self.nodes)
+            .finish()
+    }
+}
+
+impl Plan {
     /// The compiled limits (configuration, fixed for the planner's life).
     #[inline]
     pub(super) fn lim(&self) -> &Limits {
@@ -180,7 +235,7 @@ impl<const N: usize> Lookahead<N> {
     /// Buffered nodes.
     #[inline]
     pub(super) fn len(&self) -> usize {
-        self.nodes.len()
+        self.nodes.storage_len()
     }
 
     /// Nodes (from the front) whose ceilings and envelope are final.
@@ -203,7 +258,7 @@ impl<const N: usize> Lookahead<N> {
 
     /// Points that can still be pushed.
     pub(super) fn free(&self) -> usize {
-        N - self.nodes.len()
+        self.nodes.storage_capacity() - self.nodes.storage_len()
     }
 
     /// The finalized points still buffered, oldest first, with their
@@ -399,7 +454,7 @@ impl<const N: usize> Lookahead<N> {
         let reach = self.lim.reach;
         loop {
             let i = self.finalized;
-            let len = self.nodes.len();
+            let len = self.nodes.storage_len();
             if i >= len {
                 break;
             }
@@ -484,7 +539,7 @@ impl<const N: usize> Lookahead<N> {
 
     /// Whether a node other than the newest waits to be finalized.
     pub(super) fn can_force(&self) -> bool {
-        self.finalized + 1 < self.nodes.len()
+        self.finalized + 1 < self.nodes.storage_len()
     }
 
     /// Finalize the next node although its corner window is not complete.
@@ -776,7 +831,7 @@ impl<const N: usize> Lookahead<N> {
             if !self.is_path_start(i) {
                 c = c.min(ld(a.ceil));
             }
-            if !(self.ended && i + 2 == self.nodes.len()) {
+            if !(self.ended && i + 2 == self.nodes.storage_len()) {
                 c = c.min(ld(b.ceil));
             }
         }

@@ -6,7 +6,7 @@
 
 use super::config::{ConfigError, MotionConfig};
 use super::executor::Executor;
-use super::lookahead::Lookahead;
+use super::lookahead::Buffer;
 use super::smoothing::Smoother;
 use super::{MotionError, MotionPoint, MotionState, PlannedPoint, Tick};
 use crate::units::{FeedMmPerMin, SpeedMmPerTick};
@@ -15,7 +15,7 @@ use crate::units::{FeedMmPerMin, SpeedMmPerTick};
 /// buffered points. See the [module documentation](super).
 #[derive(Clone, Debug)]
 pub struct Motion<const N: usize> {
-    plan: Lookahead<N>,
+    plan: Buffer<N>,
     exec: Executor,
     smooth: Smoother,
 }
@@ -33,7 +33,7 @@ impl<const N: usize> Motion<N> {
         let lim = config.compile()?;
         Ok(Motion {
             smooth: Smoother::new(lim.smoothing),
-            plan: Lookahead::new(lim),
+            plan: Buffer::new(lim),
             exec: Executor::default(),
         })
     }
@@ -41,12 +41,12 @@ impl<const N: usize> Motion<N> {
     /// The finalized points still buffered, oldest first, with their
     /// effective ceilings and caps (override applied).
     pub fn planned(&self) -> impl Iterator<Item = PlannedPoint> + '_ {
-        self.plan.planned()
+        self.plan.plan().planned()
     }
 
     /// The tangential acceleration limit `ρ·min_a A_a`, mm/s².
     pub fn accel_limit_mm_s2(&self) -> fixed::types::I32F32 {
-        let lim = self.plan.lim();
+        let lim = self.plan.plan().lim();
         let t = lim.tick_us as i128;
         let per_s2 = (lim.accel as i128 * 1_000_000_000_000)
             .checked_div(t * t)
@@ -56,7 +56,7 @@ impl<const N: usize> Motion<N> {
 
     /// Points that can still be pushed.
     pub fn free(&self) -> usize {
-        self.plan.free()
+        self.plan.plan().free()
     }
 
     /// Whether the tool has no motion left (idle, starved at rest, held
@@ -67,7 +67,7 @@ impl<const N: usize> Motion<N> {
 
     /// A speed per tick (as in [`Tick::speed`]) in mm/min.
     pub fn speed_mm_per_min(&self, speed: SpeedMmPerTick) -> FeedMmPerMin {
-        self.plan.feed_of(speed.to_bits())
+        self.plan.plan().feed_of(speed.to_bits())
     }
 
     /// Start a new path where the tool is (at rest): what is buffered is
@@ -79,8 +79,8 @@ impl<const N: usize> Motion<N> {
         if !self.at_rest() {
             return Err(MotionError::Moving);
         }
-        let here = (self.plan.len() > 0).then(|| self.exec.position(&self.plan));
-        self.plan.restart(here);
+        let here = (self.plan.plan().len() > 0).then(|| self.exec.position(self.plan.plan()));
+        self.plan.plan_mut().restart(here);
         self.exec.restart();
         Ok(())
     }
@@ -97,17 +97,17 @@ impl<const N: usize> Motion<N> {
     /// A lower override slows the tool at the acceleration limit.
     pub fn set_override(&mut self, percent: u16) {
         let p = percent.clamp(1, 1000) as i64;
-        self.plan.set_override_q16((p << 16) / 100);
+        self.plan.plan_mut().set_override_q16((p << 16) / 100);
     }
 
     /// Add the next point. The first point of a path is where the tool is.
     pub fn push(&mut self, p: MotionPoint) -> Result<(), MotionError> {
-        self.plan.push(p)
+        self.plan.plan_mut().push(p)
     }
 
     /// The path ends at the last pushed point: plan the final stop there.
     pub fn end_path(&mut self) {
-        self.plan.end_path();
+        self.plan.plan_mut().end_path();
     }
 
     /// One interpolation tick. With smoothing the position is the mean of
@@ -116,10 +116,10 @@ impl<const N: usize> Motion<N> {
     /// window); the state stays `Moving` until the mean has caught up.
     pub fn tick(&mut self) -> Tick {
         self.unstall();
-        let mut state = self.exec.advance(&self.plan);
+        let mut state = self.exec.advance(self.plan.plan());
         self.drop_passed();
-        let raw = self.exec.position(&self.plan);
-        if self.plan.len() == 0 {
+        let raw = self.exec.position(self.plan.plan());
+        if self.plan.plan().len() == 0 {
             self.smooth.reset();
         }
         let pos = self.smooth.filter(raw);
@@ -135,24 +135,24 @@ impl<const N: usize> Motion<N> {
     }
 
     /// Free a full buffer stalled within the corner reach, with the tool
-    /// at rest ([`Lookahead::stalled`]).
+    /// at rest (`Lookahead::stalled`).
     fn unstall(&mut self) {
-        if !self.exec.at_rest() || !self.plan.stalled(self.exec.x()) {
+        if !self.exec.at_rest() || !self.plan.plan().stalled(self.exec.x()) {
             return;
         }
-        if self.plan.can_force() {
-            self.plan.force_next();
+        if self.plan.plan().can_force() {
+            self.plan.plan_mut().force_next();
             return;
         }
-        self.exec.catch_up(&self.plan);
-        if self.exec.seg() > 0 && self.plan.drop_stalled_front() {
+        self.exec.catch_up(self.plan.plan());
+        if self.exec.seg() > 0 && self.plan.plan_mut().drop_stalled_front() {
             self.exec.front_dropped();
         }
     }
 
     /// Drop nodes more than the corner reach behind the executor.
     fn drop_passed(&mut self) {
-        while self.exec.seg() > 0 && self.plan.drop_front_behind(self.exec.x()) {
+        while self.exec.seg() > 0 && self.plan.plan_mut().drop_front_behind(self.exec.x()) {
             self.exec.front_dropped();
         }
     }
