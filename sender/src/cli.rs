@@ -1,4 +1,4 @@
-//! The command line: `send`, `status`, `monitor`, `stop`, `estop`,
+//! The command line: `send`, `jog`, `status`, `monitor`, `stop`, `estop`,
 //! `unlock`, `home`, `settings`, each over the link chosen by `--port`/`--tcp`/`--unix`/`--sim`.
 
 use std::io::{IsTerminal, Write};
@@ -127,6 +127,11 @@ impl LinkArgs {
 pub enum Command {
     /// Send a program and watch it run.
     Send(SendArgs),
+    /// Jog (Grbl's `$J=`): one straight move from where the tool is, given
+    /// as G-code words, relative unless `G90`: `jog X10 Y-2.5 F1000`,
+    /// `jog G90 Z5 F300`. Watched as `send`; Ctrl-C or `s` cancels it
+    /// with a controlled stop on the path.
+    Jog(JogArgs),
     /// Print the controller's status once.
     Status {
         /// As JSON (`link::Status`).
@@ -230,6 +235,22 @@ pub struct SendArgs {
     pub log: bool,
 }
 
+/// `jog`.
+#[derive(Args, Debug)]
+pub struct JogArgs {
+    /// The move: axis words (X, Y, Z), the feed F (required), and G90
+    /// (machine coordinates) or G91 (relative, the default), G20 (inches)
+    /// or G21 (mm, the default).
+    #[arg(required = true, allow_hyphen_values = true, value_name = "WORD")]
+    pub words: Vec<String>,
+    /// Send even if the controller's settings differ from the host's.
+    #[arg(long)]
+    pub no_check: bool,
+    /// Status lines instead of a progress bar, even on a terminal.
+    #[arg(long)]
+    pub log: bool,
+}
+
 fn say(text: &str) {
     eprintln!("fuzzy-send: {text}");
 }
@@ -250,6 +271,7 @@ fn dispatch(cli: Cli) -> Result<Exit, Failure> {
     let link_timeout = cli.link.link_timeout()?;
     match cli.command {
         Command::Send(a) => send(a, &target, link_timeout),
+        Command::Jog(a) => jog(a, &target, link_timeout),
         Command::Status { json } => status(&target, link_timeout, json),
         Command::Monitor { period } => monitor(&target, link_timeout, period),
         Command::Stop => stop(&target, link_timeout),
@@ -681,8 +703,74 @@ fn send(a: SendArgs, target: &Target, link_timeout: Duration) -> Result<Exit, Fa
         None => SimConfig::default(),
     };
     let script = a.script.as_ref().map(read_script).transpose()?;
-    let mut program = program::load(&a.file, &sim_config)
+    let program = program::load(&a.file, &sim_config)
         .map_err(|e| Failure::new(Exit::Input, e.to_string()))?;
+    let run = RunArgs {
+        f_max: a.f_max,
+        f_min: a.f_min,
+        override_percent: a.override_percent,
+        script,
+        record: a.record.clone(),
+        no_check: a.no_check,
+        verify: a.verify,
+        log: a.log,
+    };
+    let file = a.file.clone();
+    run_program(run, target, link_timeout, move |here| {
+        // A G-code program starts where the tool is.
+        if matches!(program.source, program::Source::File(_))
+            && here != sim_config.gcode.start_mm
+            && !file.to_ascii_lowercase().ends_with(".csv")
+        {
+            let mut c = sim_config.clone();
+            c.gcode.start_mm = here;
+            return program::load(&file, &c).map_err(|e| Failure::new(Exit::Input, e.to_string()));
+        }
+        Ok(program)
+    })
+}
+
+fn jog(a: JogArgs, target: &Target, link_timeout: Duration) -> Result<Exit, Failure> {
+    let j = program::Jog::parse(&a.words).map_err(|e| Failure::new(Exit::Usage, e))?;
+    let run = RunArgs {
+        // The jog's own feed bounds the schedule (a straight move is
+        // scheduled at its programmed feed).
+        f_max: Some(j.feed_mm_per_min().min(program::machine_feed_max())),
+        f_min: (controller::settings::F_MIN_MM_PER_MIN as f64).min(j.feed_mm_per_min().max(1.0)),
+        override_percent: None,
+        script: None,
+        record: None,
+        no_check: a.no_check,
+        verify: false,
+        log: a.log,
+    };
+    run_program(run, target, link_timeout, move |here| {
+        program::jog(&j, here, &SimConfig::default())
+            .map_err(|e| Failure::new(Exit::Input, e.to_string()))
+    })
+}
+
+/// How `send` and `jog` run their program.
+struct RunArgs {
+    f_max: Option<f64>,
+    f_min: f64,
+    override_percent: Option<u16>,
+    script: Option<Script>,
+    record: Option<PathBuf>,
+    no_check: bool,
+    verify: bool,
+    log: bool,
+}
+
+/// Connect, hand the program `build` makes from the tool's position
+/// (mm) to the controller, and watch it run (keys on a terminal, the
+/// script otherwise); the exit code.
+fn run_program(
+    a: RunArgs,
+    target: &Target,
+    link_timeout: Duration,
+    build: impl FnOnce([f64; 3]) -> Result<program::Program, Failure>,
+) -> Result<Exit, Failure> {
     program::scheduler_config(a.f_max.unwrap_or(program::machine_feed_max()), a.f_min)
         .map_err(|e| Failure::new(Exit::Usage, e))?;
     let rec = match &a.record {
@@ -707,17 +795,7 @@ fn send(a: SendArgs, target: &Target, link_timeout: Duration) -> Result<Exit, Fa
     let f_max = a.f_max.unwrap_or_else(|| hs.feed_max_mm_per_min());
     opts.config =
         program::scheduler_config(f_max, a.f_min).map_err(|e| Failure::new(Exit::Usage, e))?;
-    // A G-code program starts where the tool is.
-    let here = hs.status.pos_mm.map(bits_f64);
-    if matches!(program.source, program::Source::File(_))
-        && here != sim_config.gcode.start_mm
-        && !a.file.to_ascii_lowercase().ends_with(".csv")
-    {
-        let mut c = sim_config.clone();
-        c.gcode.start_mm = here;
-        program =
-            program::load(&a.file, &c).map_err(|e| Failure::new(Exit::Input, e.to_string()))?;
-    }
+    let program = build(hs.status.pos_mm.map(bits_f64))?;
     say(&format!(
         "sending {}: {} points, {:.1} mm, F_max {} mm/min, F_min {} mm/min",
         program.name,
@@ -752,7 +830,7 @@ fn send(a: SendArgs, target: &Target, link_timeout: Duration) -> Result<Exit, Fa
     } else {
         None
     };
-    let mut inputs = Inputs::new(keys, script, interrupts);
+    let mut inputs = Inputs::new(keys, a.script, interrupts);
     let outcome = session.run(&program, &hs, &opts, &mut inputs, display.as_mut());
     display.finish();
     // Leave raw mode before the summary.

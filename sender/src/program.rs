@@ -27,6 +27,8 @@ pub enum Source {
     File(PathBuf),
     /// A built-in shape (`host_sim::shapes`).
     Shape(Shape),
+    /// A jog move ([`Jog`]).
+    Jog,
 }
 
 /// A program ready to send: points in path order (the first is where the
@@ -252,6 +254,15 @@ pub fn load(spec: &str, config: &SimConfig) -> Result<Program, InputError> {
             }
         }
     };
+    from_toolpath(t, source, spec)
+}
+
+/// A program from a toolpath read from `spec`.
+fn from_toolpath(
+    t: host_sim::toolpath::Toolpath,
+    source: Source,
+    spec: &str,
+) -> Result<Program, InputError> {
     let blocks_mm = (0..t.len()).map(|i| t.block_length_mm(i)).collect();
     let points = t.path_points();
     let mut events = Vec::with_capacity(t.events.len());
@@ -274,6 +285,122 @@ pub fn load(spec: &str, config: &SimConfig) -> Result<Program, InputError> {
         });
     }
     Program::new(t.name, source, points, t.lines, blocks_mm, spec).map(|p| p.with_events(events))
+}
+
+/// A jog (Grbl's `$J=`): one straight move at its own feed from where the
+/// tool is, relative (`G91`, the default, as `$J=G91 …`) or to machine
+/// coordinates (`G90`), in mm (`G21`) or inches (`G20`). Axes not named
+/// stay where they are. It runs as a one-move program: the controller's
+/// soft limits, homing requirement and alarms apply as to any motion, and
+/// a stop (Ctrl-C, `stop`) cancels it under control on the path.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Jog {
+    /// The axis words (X, Y, Z), in the move's unit.
+    pub axes: [Option<f64>; 3],
+    /// `F`, in the move's unit per minute.
+    pub feed: f64,
+    /// `G90`: the words are machine coordinates.
+    pub absolute: bool,
+    /// `G20`: inches.
+    pub inches: bool,
+}
+
+impl Jog {
+    /// From G-code words (`X10`, `y-2.5`, `F1000`, `G90`, `G91`, `G20`,
+    /// `G21`; case-insensitive, in any order; later modes win). `F` and one
+    /// axis at least are required, as in Grbl's jog.
+    pub fn parse<S: AsRef<str>>(words: &[S]) -> Result<Jog, String> {
+        let mut j = Jog {
+            axes: [None; 3],
+            feed: f64::NAN,
+            absolute: false,
+            inches: false,
+        };
+        for w in words {
+            let w = w.as_ref().trim();
+            let mut chars = w.chars();
+            let Some(letter) = chars.next() else { continue };
+            let rest = chars.as_str();
+            let value: f64 = rest
+                .parse()
+                .ok()
+                .filter(|v: &f64| v.is_finite())
+                .ok_or_else(|| format!("`{w}`: not a word with a number (X10, F1000, G91)"))?;
+            match letter.to_ascii_uppercase() {
+                'X' => j.axes[0] = Some(value),
+                'Y' => j.axes[1] = Some(value),
+                'Z' => j.axes[2] = Some(value),
+                'F' => j.feed = value,
+                'G' => match rest {
+                    "90" => j.absolute = true,
+                    "91" => j.absolute = false,
+                    "20" => j.inches = true,
+                    "21" => j.inches = false,
+                    _ => return Err(format!("`{w}`: a jog takes G90, G91, G20 or G21 only")),
+                },
+                _ => return Err(format!("`{w}`: a jog takes X, Y, Z, F and G words only")),
+            }
+        }
+        if j.axes.iter().all(Option::is_none) {
+            return Err("a jog needs an axis word (X, Y or Z)".into());
+        }
+        if j.feed.is_nan() || j.feed <= 0.0 {
+            return Err("a jog needs a feed above zero (F, mm/min or in/min)".into());
+        }
+        Ok(j)
+    }
+
+    /// Where the move ends from `here` (mm).
+    pub fn target_mm(&self, here: [f64; 3]) -> [f64; 3] {
+        let unit = if self.inches { 25.4 } else { 1.0 };
+        let mut t = here;
+        for (k, w) in self.axes.iter().enumerate() {
+            if let Some(v) = w {
+                t[k] = if self.absolute {
+                    v * unit
+                } else {
+                    here[k] + v * unit
+                };
+            }
+        }
+        t
+    }
+
+    /// The feed, mm/min.
+    pub fn feed_mm_per_min(&self) -> f64 {
+        self.feed * if self.inches { 25.4 } else { 1.0 }
+    }
+}
+
+/// The program of `jog` from `here` (mm): the G-code block
+/// `G21 G90 G1 X… Y… Z… F…` read with the tool at `here`, as a file would
+/// be (the same reader, the same checks).
+pub fn jog(j: &Jog, here: [f64; 3], config: &SimConfig) -> Result<Program, InputError> {
+    let to = j.target_mm(here);
+    let err = |message: String| InputError {
+        file: "jog".into(),
+        line: None,
+        message,
+    };
+    if to == here {
+        return Err(err("the jog ends where the tool is".into()));
+    }
+    let block = format!(
+        "G21 G90 G1 X{:.6} Y{:.6} Z{:.6} F{:.3}\n",
+        to[0],
+        to[1],
+        to[2],
+        j.feed_mm_per_min()
+    );
+    let mut c = config.gcode.clone();
+    c.start_mm = here;
+    let t = host_sim::gcode::parse("jog", &block, &c)
+        .map_err(|e| InputError::from_reader("jog", &e))?;
+    let p = from_toolpath(t, Source::Jog, "jog")?;
+    if p.len() < 2 {
+        return Err(err("the jog is shorter than the link's grid".into()));
+    }
+    Ok(p)
 }
 
 impl Program {
@@ -556,6 +683,46 @@ pub fn machine_feed_max() -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_jog_is_read_from_its_words_and_starts_where_the_tool_is() {
+        let j = Jog::parse(&["x1.5", "Z-2", "F600"]).unwrap();
+        assert_eq!(j.axes, [Some(1.5), None, Some(-2.0)]);
+        assert_eq!(j.target_mm([10.0, 20.0, -1.0]), [11.5, 20.0, -3.0]);
+        let a = Jog::parse(&["G91", "G90", "Y-5", "F100"]).unwrap();
+        assert_eq!(a.target_mm([10.0, 20.0, -1.0]), [10.0, -5.0, -1.0]);
+        let inch = Jog::parse(&["G20", "X1", "F10"]).unwrap();
+        assert_eq!(inch.target_mm([0.0; 3]), [25.4, 0.0, 0.0]);
+        assert_eq!(inch.feed_mm_per_min(), 254.0);
+        for bad in [
+            &["X1"][..],
+            &["F100"],
+            &["X1", "F0"],
+            &["X1", "F100", "G1"],
+            &["X1", "F100", "S5"],
+            &["Xa", "F100"],
+            &["X1", "Fnan"],
+        ] {
+            assert!(Jog::parse(bad).is_err(), "{bad:?}");
+        }
+        let here = [3.0, -4.0, 0.5];
+        let p = jog(&j, here, &SimConfig::default()).unwrap();
+        assert_eq!(p.source, Source::Jog);
+        assert_eq!(p.points.len(), 2);
+        let start = p.points[0].pos.to_f64();
+        assert!(
+            (0..3).all(|k| (start[k] - here[k]).abs() < 1e-6),
+            "{start:?}"
+        );
+        let end = p.points[1].pos.to_f64();
+        assert!(
+            (end[0] - 4.5).abs() < 1e-6 && (end[2] + 1.5).abs() < 1e-6,
+            "{end:?}"
+        );
+        assert!((p.length_mm() - (1.5f64.powi(2) + 4.0).sqrt()).abs() < 1e-6);
+        let no_move = Jog::parse(&["G90", "X3", "F100"]).unwrap();
+        assert!(jog(&no_move, here, &SimConfig::default()).is_err());
+    }
 
     fn repo(rel: &str) -> String {
         format!("{}/../{rel}", env!("CARGO_MANIFEST_DIR"))

@@ -3,8 +3,8 @@
 //! settings read, written (checked by the controller, stored) and listed
 //! with the controller's own table; homing against simulated limit
 //! switches, its failure alarm and its refusal while disabled; and the
-//! `fuzzy-send` binary's `settings`, `home`, `estop`, `unlock` and
-//! `status` on `--sim`, with their exit codes.
+//! `fuzzy-send` binary's `settings`, `home`, `estop`, `unlock`, `status`
+//! and `jog` on `--sim`, with their exit codes.
 
 use std::process::Command;
 use std::time::Duration;
@@ -172,4 +172,19 @@ fn the_binarys_machine_commands_and_their_exit_codes() {
         out.contains("state: Idle") && out.contains("alarm: none"),
         "{out}"
     );
+    // `jog`: words checked before connecting (exit 2), then run (exit 0).
+    for bad in [
+        &["X5"][..],
+        &["F100"],
+        &["X5", "F100", "M3"],
+        &["X5", "F-1"],
+    ] {
+        let mut args = vec!["jog"];
+        args.extend_from_slice(bad);
+        let (code, _, err) = fuzzy_send(&args);
+        assert_eq!(code, Some(2), "{bad:?}: {err}");
+    }
+    let (code, _, err) = fuzzy_send(&["jog", "--log", "X-2", "Y-1", "F1200"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(err.contains("sending jog: 2 points, 2.2 mm"), "{err}");
 }

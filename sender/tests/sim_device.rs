@@ -19,10 +19,13 @@ use host_sim::config::SimConfig;
 use link::{AlarmCode, DeviceMsg, HostMsg, Motion, PlanEvent, Status};
 use sender::actions::{Action, Script};
 use sender::exit::Exit;
-use sender::program::{self, Item, Program};
+use sender::program::{self, Item, Jog, Program};
 use sender::record::Recorder;
 use sender::sim::{self, SimHandle};
 use sender::stream::{Actions, NoActions, Options, Outcome, Quiet, Session, SettingsCheck};
+use sender::view::bits_f64;
+
+const T: Duration = Duration::from_secs(3);
 
 fn repo(rel: &str) -> String {
     format!("{}/../{rel}", env!("CARGO_MANIFEST_DIR"))
@@ -254,6 +257,62 @@ fn scripted_hold_resume_and_override_act_on_the_motion() {
     );
     assert!(st.iter().any(|s| s.override_percent == 50));
     assert_eq!(o.summary.last_status.unwrap().override_percent, 60);
+}
+
+/// Jogs (`fuzzy-send jog`) as the controller runs them: each from where the
+/// tool is (a relative one, then one to machine coordinates naming one
+/// axis), ending exactly on their target; with soft limits on, a jog out
+/// of the travel is refused with nothing moved; a scripted stop cancels
+/// one under control on its line.
+#[test]
+fn jogs_start_where_the_tool_is_and_soft_limits_refuse_one_out_of_travel() {
+    let h = sim::start(4.0).unwrap();
+    let mut s = session(&h, Recorder::none());
+    let o = opts();
+    let jog = |s: &mut Session, words: &[&str], actions: &mut dyn Actions| {
+        let hs = s.handshake(&o).unwrap();
+        let here = hs.status.pos_mm.map(bits_f64);
+        let j = Jog::parse(words).unwrap();
+        let p = program::jog(&j, here, &SimConfig::default()).unwrap();
+        assert_eq!(p.points.len(), 2, "{words:?}: one straight move");
+        let target = j.target_mm(here);
+        (s.run(&p, &hs, &o, actions, &mut Quiet), p, target)
+    };
+    let at = |s: &mut Session| s.status_within(T, |_| {}).unwrap().pos_mm.map(bits_f64);
+    let (out, p, target) = jog(&mut s, &["X-10", "y-2.5", "F3000"], &mut NoActions);
+    assert_done(&out, &p);
+    assert_eq!(target, [-10.0, -2.5, 0.0]);
+    assert_eq!(at(&mut s), target);
+    let (out, p, target) = jog(&mut s, &["G90", "Z-1.5", "F600"], &mut NoActions);
+    assert_done(&out, &p);
+    assert_eq!(target, [-10.0, -2.5, -1.5], "the axes not named stay");
+    assert_eq!(at(&mut s), target);
+    // Soft limits: machine space [−200, 0] per axis at the defaults.
+    assert_eq!(
+        s.set_setting(20, 1, T).unwrap(),
+        Some(link::StoreResult::Saved)
+    );
+    let (out, _, _) = jog(&mut s, &["X12", "F3000"], &mut NoActions);
+    assert_eq!(out.exit, Exit::Controller, "{}", out.message);
+    assert!(out.message.contains("OutOfTravel"), "{}", out.message);
+    assert_eq!(at(&mut s), [-10.0, -2.5, -1.5], "nothing moved");
+    // A long jog stopped part way (Ctrl-C or `s` in the sender): it ends
+    // at rest on its line, short of the target.
+    let mut script = Script::parse("at 0.3 s: stop\n").unwrap();
+    let (out, _, target) = jog(&mut s, &["X-150", "F1000"], &mut script);
+    assert_eq!(out.exit, Exit::UserStop, "{}", out.message);
+    let deadline = Instant::now() + Duration::from_secs(5);
+    let end = loop {
+        let st = s.status_within(T, |_| {}).unwrap();
+        if st.motion == Motion::Idle {
+            break st.pos_mm.map(bits_f64);
+        }
+        assert!(Instant::now() < deadline, "{st:?}");
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    assert!(end[0] < -10.0 && end[0] > target[0], "{end:?}");
+    assert_eq!(&end[1..], &[-2.5, -1.5], "on the jog's line");
+    h.finish();
 }
 
 #[test]
