@@ -25,22 +25,30 @@ pub(crate) struct Brake {
 impl Brake {
     /// The stop from `(v, a)` with deceleration at most `decel` and jerk `jerk`.
     pub(crate) fn new(v: i64, a: i64, decel: i64, jerk: i64) -> Brake {
+        let j = jerk.max(1);
+        Self::with_ramp(v, a, div(a.saturating_abs(), j), decel, j)
+    }
+
+    /// [`Self::new`] given `ta = |a|/J` (ticks, as `q::div` gives it), for
+    /// a caller that has it already; `jerk >= 1`.
+    pub(crate) fn with_ramp(v: i64, a: i64, ta: i64, decel: i64, jerk: i64) -> Brake {
         let v = v.max(0);
         let j = jerk.max(1);
-        let (first, dp, hold) = if a >= 0 {
+        // `D'/J` (the last phase's length) is computed once and reused.
+        let (first, hold, last) = if a >= 0 {
             // Bring a to zero (speed grows by a²/2J), then ramp to −D' and back.
-            let ta = div(a, j);
             let v0 = v + mul(ta, a) / 2;
             let dp = decel.min(mul(j, sqrt(div(v0, j))));
+            let dpj = div(dp, j);
             let hold = if dp > 0 {
-                div(v0 - mul(dp, div(dp, j)), dp).max(0)
+                div(v0 - mul(dp, dpj), dp).max(0)
             } else {
                 0
             };
-            (ta + div(dp, j), dp, hold)
+            (ta + dpj, hold, dpj)
         } else {
-            // Already decelerating: ramp further to −D' (or start ramping up).
-            let ta = div(-a, j); // time to bring −a back to zero
+            // Already decelerating: ramp further to −D' (or start ramping up);
+            // `ta` brings −a back to zero.
             let lost_up = mul(ta, -a) / 2; // speed shed by ramping −a to 0
             let dp2 = div(v, j) + mul(ta, ta) / 2; // (D'/J)² for the triangular stop
             let dp = decel.min(mul(j, sqrt(dp2)));
@@ -51,19 +59,19 @@ impl Brake {
                 } else {
                     0
                 };
-                (0, -a, hold)
+                (0, hold, ta)
             } else {
-                let up = mul(dp, div(dp, j)) / 2; // shed while ramping −D' → 0
-                let down = (mul(dp, div(dp, j)) - mul(-a, ta)) / 2; // while ramping −a → −D'
+                let dpj = div(dp, j);
+                let up = mul(dp, dpj) / 2; // shed while ramping −D' → 0
+                let down = (mul(dp, dpj) - mul(-a, ta)) / 2; // while ramping −a → −D'
                 let hold = if dp > 0 {
                     div(v - down - up, dp).max(0)
                 } else {
                     0
                 };
-                (div(dp + a, j), dp, hold)
+                (div(dp + a, j), hold, dpj)
             }
         };
-        let last = div(dp, j);
         let phases = [(first, -j), (hold, 0), (last, j)];
         let mut starts = [0i64; 4];
         let mut at = [(v, a, 0i64); 4];

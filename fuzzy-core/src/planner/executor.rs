@@ -154,30 +154,34 @@ impl Executor {
         if v > plan.env_at(k, x) {
             return false;
         }
+        // `|a|/J`, shared by the checks and the stop.
+        let ta = div(a.saturating_abs(), j);
         // Still able to end the deceleration smoothly: v >= a²/2J.
-        if a < 0 && v < mul(div(-a, j), -a) / 2 {
+        if a < 0 && v < mul(ta, -a) / 2 {
             return false;
         }
-        let tpk = if a > 0 { div(a, j) } else { 0 };
+        let tpk = if a > 0 { ta } else { 0 };
         let vmax = v + mul(tpk, a.max(0)) / 2;
         if vmax > plan.cap_eff(k) {
             return false;
         }
-        let b = Brake::new(v, a, acc, j);
+        let b = Brake::with_ramp(v, a, ta, acc, j);
         let stop = Stop { b, x, k };
+        // The stop's end: where it rests.
+        let x_end = x.saturating_add(b.walk(b.total).2);
         match b.reaches(a, lim.envelope_decel) {
-            None => self.points_ok(plan, &stop, 0, b.total, vmax),
+            None => self.points_ok(plan, &stop, x, x_end, vmax),
             Some(t_env) => {
-                if !self.points_ok(plan, &stop, 0, t_env, vmax) {
+                let (vb, _, xb) = b.walk(t_env);
+                let xe = x.saturating_add(xb);
+                if !self.points_ok(plan, &stop, x, xe, vmax) {
                     return false;
                 }
                 let tf = b.final_ramp_start().max(t_env);
-                let (vf, _, _) = b.walk(tf);
-                if !self.points_ok(plan, &stop, tf, b.total, vf) {
+                let (vf, _, xf) = b.walk(tf);
+                if !self.points_ok(plan, &stop, x.saturating_add(xf), x_end, vf) {
                     return false;
                 }
-                let (vb, _, xb) = b.walk(t_env);
-                let xe = x.saturating_add(xb);
                 vb <= plan.env_at(plan.seg_of(k, xe), xe)
             }
         }
@@ -187,13 +191,7 @@ impl Executor {
     /// there at most `upper`) are all planned, and it passes each binding
     /// one no faster than its envelope (the others are covered by the next
     /// binding node or the end of the stretch: module docs).
-    fn points_ok(&self, plan: &Plan, c: &Stop, t0: i64, t1: i64, upper: i64) -> bool {
-        let x0 = if t0 > 0 {
-            c.x.saturating_add(c.b.walk(t0).2)
-        } else {
-            c.x
-        };
-        let x1 = c.x.saturating_add(c.b.walk(t1).2);
+    fn points_ok(&self, plan: &Plan, c: &Stop, x0: i64, x1: i64, upper: i64) -> bool {
         let tail = plan.finalized().saturating_sub(1);
         let mut i = c.k + 1;
         while let Some(n) = plan.node(i) {
