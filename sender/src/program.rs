@@ -372,26 +372,30 @@ impl Jog {
     }
 }
 
-/// The program of `jog` from `here` (mm): the G-code block
-/// `G21 G90 G1 X… Y… Z… F…` read with the tool at `here`, as a file would
-/// be (the same reader, the same checks).
+/// The program of `jog` from `here` (mm): its words as the G-code block
+/// `G21|G20 G91|G90 G1 X… F…` (the values as given), read with the tool at
+/// `here` by the same reader as a file, so that the axes not named stay
+/// exactly where they are.
 pub fn jog(j: &Jog, here: [f64; 3], config: &SimConfig) -> Result<Program, InputError> {
-    let to = j.target_mm(here);
     let err = |message: String| InputError {
         file: "jog".into(),
         line: None,
         message,
     };
-    if to == here {
+    if j.target_mm(here) == here {
         return Err(err("the jog ends where the tool is".into()));
     }
-    let block = format!(
-        "G21 G90 G1 X{:.6} Y{:.6} Z{:.6} F{:.3}\n",
-        to[0],
-        to[1],
-        to[2],
-        j.feed_mm_per_min()
+    let mut block = format!(
+        "{} {} G1",
+        if j.inches { "G20" } else { "G21" },
+        if j.absolute { "G90" } else { "G91" }
     );
+    for (letter, w) in ['X', 'Y', 'Z'].iter().zip(j.axes) {
+        if let Some(v) = w {
+            block.push_str(&format!(" {letter}{v}"));
+        }
+    }
+    block.push_str(&format!(" F{}\n", j.feed));
     let mut c = config.gcode.clone();
     c.start_mm = here;
     let t = host_sim::gcode::parse("jog", &block, &c)

@@ -28,7 +28,8 @@
 //!   nothing sent); `status` names the alarm; `unlock` (exit 0); a `$`
 //!   setting written (in force; QEMU's flash does not keep it: exit 5 and
 //!   said so) and read back; `home` refused with homing off (exit 5); a
-//!   program then runs (exit 0) with the changed setting listed.
+//!   program then runs (exit 0) with the changed setting listed, and a
+//!   `jog` after it ends where its words say from where the tool was.
 //!
 //! Needs `qemu-system-arm` (skipped without it unless
 //! `FUZZY_REQUIRE_QEMU=1`). Every QEMU and sender run has a deadline.
@@ -837,8 +838,20 @@ fn an_estop_is_the_alarm_until_unlocked_and_settings_are_read_and_written() {
     assert_eq!(r.code(), Some(0), "after unlock; stderr:\n{}", r.stderr);
     assert!(r.stderr.contains("$120=1500"), "{}", r.stderr);
     assert!(r.stderr.contains("done: "), "{}", r.stderr);
+    // A jog from where the pocket ended: relative, Z not named stays.
+    let before = status_json(&q).pos_mm;
+    let r = run(&["jog", "--log", "X-1.5", "Y0.25", "F600"]);
+    assert_eq!(r.code(), Some(0), "jog; stderr:\n{}", r.stderr);
+    let after = status_json(&q).pos_mm;
+    let mm = |b: i64| b as f64 / 4294967296.0;
+    assert!(
+        (mm(after[0]) - mm(before[0]) + 1.5).abs() < 1e-6
+            && (mm(after[1]) - mm(before[1]) - 0.25).abs() < 1e-6
+            && after[2] == before[2],
+        "jog from {before:?} ended at {after:?}"
+    );
     println!(
-        "estop: exit 7 at X{:.3} Y{:.3}, unlock, $120 written and read back, pocket after it in {:.1} s",
+        "estop: exit 7 at X{:.3} Y{:.3}, unlock, $120 written and read back, pocket after it in {:.1} s, a jog after that",
         pos[0] as f64 / 4294967296.0,
         pos[1] as f64 / 4294967296.0,
         r.took.as_secs_f64()
