@@ -20,6 +20,9 @@ pub(crate) struct Brake {
     starts: [i64; 4],
     /// Speed, acceleration and distance at each phase start and the end.
     at: [(i64, i64, i64); 4],
+    /// The first phase's `a/j` (ticks; its crossing quadratic's `p`), from
+    /// the `|a|/J` the stop was built with.
+    p0: i64,
 }
 
 impl Brake {
@@ -87,6 +90,8 @@ impl Brake {
             total: starts[3],
             starts,
             at,
+            // `a/(−J)`: `q::div` rounds the magnitude alone.
+            p0: if a > 0 { -ta } else { ta },
         }
     }
 
@@ -137,7 +142,8 @@ impl Brake {
         for p in 0..3 {
             let (v0, a0, _) = self.at[p];
             let (h, j) = self.phases[p];
-            phase_roots(v0, a0, h, j, w, self.starts[p], &mut t, &mut n);
+            let ratio = if p == 0 { Some(self.p0) } else { None };
+            phase_roots(v0, a0, h, j, w, self.starts[p], ratio, &mut t, &mut n);
         }
         let v = self.at[0].0;
         let (lo, hi) = match (v > w, n) {
@@ -170,7 +176,7 @@ pub(crate) fn speed_crossings(
         if h <= 0 {
             continue;
         }
-        phase_roots(v, a, h, j, w, t0, out, &mut n);
+        phase_roots(v, a, h, j, w, t0, None, out, &mut n);
         let h2 = mul(h, h);
         v = v.saturating_add(mul(a, h) + mul(j, h2) / 2);
         a = a.saturating_add(mul(j, h));
@@ -180,9 +186,20 @@ pub(crate) fn speed_crossings(
 }
 
 /// The times in `(0, h]` (offset by `t0`) at which the speed of one phase
-/// (jerk `j` from `(v, a)`) equals `w`, appended to `out[*n..]`.
+/// (jerk `j` from `(v, a)`) equals `w`, appended to `out[*n..]`; `ratio`:
+/// `a/j` if the caller has it.
 #[allow(clippy::too_many_arguments)]
-fn phase_roots(v: i64, a: i64, h: i64, j: i64, w: i64, t0: i64, out: &mut [i64; 4], n: &mut usize) {
+fn phase_roots(
+    v: i64,
+    a: i64,
+    h: i64,
+    j: i64,
+    w: i64,
+    t0: i64,
+    ratio: Option<i64>,
+    out: &mut [i64; 4],
+    n: &mut usize,
+) {
     if h <= 0 {
         return;
     }
@@ -198,7 +215,7 @@ fn phase_roots(v: i64, a: i64, h: i64, j: i64, w: i64, t0: i64, out: &mut [i64; 
         }
     } else {
         // τ² + 2pτ + q = 0 with p = a/j, q = 2(v − w)/j.
-        let p = div(a, j);
+        let p = ratio.unwrap_or_else(|| div(a, j));
         let q = div(v - w, j).saturating_mul(2);
         let disc = mul(p, p).saturating_sub(q);
         if disc >= 0 {
@@ -227,9 +244,16 @@ pub(crate) fn integrate(
         }
         let h = dur.min(t);
         let h2 = mul(h, h);
-        x = x.saturating_add(mul(v, h) + mul(a, h2) / 2 + mul(mul(mul(j, h2), h), SIXTH));
-        v = v.saturating_add(mul(a, h) + mul(j, h2) / 2);
-        a = a.saturating_add(mul(j, h));
+        if j == 0 {
+            // A hold: the jerk's terms are zero (the same sums, fewer products).
+            x = x.saturating_add(mul(v, h) + mul(a, h2) / 2);
+            v = v.saturating_add(mul(a, h));
+        } else {
+            let jh2 = mul(j, h2);
+            x = x.saturating_add(mul(v, h) + mul(a, h2) / 2 + mul(mul(jh2, h), SIXTH));
+            v = v.saturating_add(mul(a, h) + jh2 / 2);
+            a = a.saturating_add(mul(j, h));
+        }
         t -= h;
     }
     (v.max(0), a, x)

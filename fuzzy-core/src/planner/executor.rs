@@ -151,7 +151,7 @@ impl Executor {
     fn safe(&self, plan: &Plan, k: usize, x: i64, v: i64, a: i64) -> bool {
         let lim = plan.lim();
         let (j, acc) = (lim.jerk, lim.accel);
-        if v > plan.env_at(k, x) {
+        if plan.over_env(k, x, v) {
             return false;
         }
         // `|a|/J`, shared by the checks and the stop.
@@ -182,7 +182,7 @@ impl Executor {
                 if !self.points_ok(plan, &stop, x.saturating_add(xf), x_end, vf) {
                     return false;
                 }
-                vb <= plan.env_at(plan.seg_of(k, xe), xe)
+                !plan.over_env(plan.seg_of(k, xe), xe, vb)
             }
         }
     }

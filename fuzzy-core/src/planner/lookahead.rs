@@ -5,7 +5,7 @@
 //! Input: [`MotionPoint`]s (position, scheduled feed, curvature), one
 //! [`Segment`] measured per move. Output, read by the executor: for every
 //! finalized node its arc length, envelope and whether the envelope binds
-//! there, and [`Lookahead::env_at`] between nodes.
+//! there, and [`Lookahead::over_env`] between nodes.
 //!
 //! Invariants:
 //! - the nodes `0..finalized` have final ceilings (their corner window is
@@ -899,20 +899,22 @@ impl Plan {
         }
     }
 
-    /// The envelope at arc length `x` on segment `k`: under the segment's
-    /// cap, within reach of the next node's envelope, and of a stop at the
-    /// end of what is planned.
-    pub(super) fn env_at(&self, k: usize, x: i64) -> i64 {
+    /// Whether speed `v` at arc length `x` on segment `k` exceeds the
+    /// envelope there: the segment's cap, the reach of the next node's
+    /// envelope, and of a stop at the end of what is planned (nothing is
+    /// under the envelope past the end). Each bound is computed only while
+    /// `v` is within the ones before.
+    pub(super) fn over_env(&self, k: usize, x: i64, v: i64) -> bool {
         if k + 1 >= self.finalized {
-            return 0;
+            return v > 0;
         }
         let (Some(next), Some(tail)) = (self.nodes.get(k + 1), self.nodes.get(self.finalized - 1))
         else {
-            return 0;
+            return v > 0;
         };
-        self.cap_eff(k)
-            .min(self.reach_from(ld(next.env), next.s - x))
-            .min(self.reach_from(self.lim.creep, tail.s - x))
+        v > self.cap_eff(k)
+            || v > self.reach_from(ld(next.env), next.s - x)
+            || v > self.reach_from(self.lim.creep, tail.s - x)
     }
 
     /// Segment index (in `nodes`) containing arc length `x`, searching from `from`.
