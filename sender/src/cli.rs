@@ -129,7 +129,7 @@ pub enum Command {
     Send(SendArgs),
     /// Jog (Grbl's `$J=`): one straight move from where the tool is, given
     /// as G-code words, relative unless `G90`: `jog X10 Y-2.5 F1000`,
-    /// `jog G90 Z5 F300`. Watched as `send`; Ctrl-C or `s` cancels it
+    /// `jog G90 Z5 F300`. Watched as `send`; Ctrl-C or Esc cancels it
     /// with a controlled stop on the path.
     Jog(JogArgs),
     /// Print the controller's status once.

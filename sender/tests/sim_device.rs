@@ -296,7 +296,7 @@ fn jogs_start_where_the_tool_is_and_soft_limits_refuse_one_out_of_travel() {
     assert_eq!(out.exit, Exit::Controller, "{}", out.message);
     assert!(out.message.contains("OutOfTravel"), "{}", out.message);
     assert_eq!(at(&mut s), [-10.0, -2.5, -1.5], "nothing moved");
-    // A long jog stopped part way (Ctrl-C or `s` in the sender): it ends
+    // A long jog stopped part way (Ctrl-C or Esc in the sender): it ends
     // at rest on its line, short of the target.
     let mut script = Script::parse("at 0.3 s: stop\n").unwrap();
     let (out, _, target) = jog(&mut s, &["X-150", "F1000"], &mut script);
