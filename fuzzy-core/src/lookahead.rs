@@ -78,8 +78,24 @@ impl<T: Copy + Default, const WS: usize> LookaheadWindow<T, WS> {
     /// back once its window is complete.
     pub fn push(&mut self, item: T, curvature: CurvaturePerMm) -> Option<Windowed<T>> {
         let index = self.next_out.wrapping_add(self.pending.len() as u32);
-        while self.candidates.back().is_some_and(|&(_, k)| k <= curvature) {
-            self.candidates.pop_back();
+        // The candidates' curvatures decrease strictly from the front, so
+        // those at most `curvature` are a suffix: found by bisection, so
+        // that a new maximum costs log WS probes instead of WS pops.
+        if self.candidates.back().is_some_and(|&(_, k)| k <= curvature) {
+            let (mut lo, mut hi) = (0, self.candidates.len().saturating_sub(1));
+            while lo < hi {
+                let mid = lo + (hi - lo) / 2;
+                if self
+                    .candidates
+                    .get(mid)
+                    .is_some_and(|&(_, k)| k <= curvature)
+                {
+                    hi = mid;
+                } else {
+                    lo = mid + 1;
+                }
+            }
+            self.candidates.truncate(lo);
         }
         // Cannot fail: both deques hold at most WS − 1 entries between calls.
         let _ = self.candidates.push_back((index, curvature));
@@ -169,18 +185,38 @@ mod tests {
         assert_eq!(run::<1>(&[4, 1, 9]), vec![(0, 4, 4), (1, 1, 1), (2, 9, 9)]);
     }
 
+    fn check<const WS: usize>(ks: &[i64]) -> Result<(), TestCaseError> {
+        let got = run::<WS>(ks);
+        prop_assert_eq!(got.len(), ks.len());
+        for (i, &(item, kv, dk)) in got.iter().enumerate() {
+            let end = (i + WS).min(ks.len());
+            let want = ks[i..end].iter().copied().max().unwrap();
+            prop_assert_eq!(item, i);
+            prop_assert_eq!(kv, ks[i]);
+            prop_assert_eq!(dk, want);
+        }
+        Ok(())
+    }
+
     proptest! {
         #[test]
         fn equals_brute_force(ks in proptest::collection::vec(0i64..1000, 0..200)) {
-            let got = run::<7>(&ks);
-            prop_assert_eq!(got.len(), ks.len());
-            for (i, &(item, kv, dk)) in got.iter().enumerate() {
-                let end = (i + 7).min(ks.len());
-                let want = ks[i..end].iter().copied().max().unwrap();
-                prop_assert_eq!(item, i);
-                prop_assert_eq!(kv, ks[i]);
-                prop_assert_eq!(dk, want);
-            }
+            check::<7>(&ks)?;
+            check::<30>(&ks)?;
+        }
+
+        /// Falling runs (long candidate lists) broken by new maxima, ties
+        /// included: every length of suffix is dropped.
+        #[test]
+        fn equals_brute_force_on_falling_runs(
+            runs in proptest::collection::vec((0i64..1000, 1usize..40, 0i64..30), 0..12),
+        ) {
+            let ks: Vec<i64> = runs
+                .iter()
+                .flat_map(|&(top, n, step)| (0..n as i64).map(move |j| (top - j * step).max(0)))
+                .collect();
+            check::<7>(&ks)?;
+            check::<30>(&ks)?;
         }
     }
 }

@@ -116,10 +116,10 @@ impl<T: Copy + Default, const N: usize> Ring<T, N> {
         v
     }
 
-    /// Remove the newest value.
+    /// Keep the `len` oldest values (all of them if fewer are held).
     #[inline(always)]
-    pub(crate) fn pop_back(&mut self) {
-        self.len = self.len.saturating_sub(1);
+    pub(crate) fn truncate(&mut self, len: usize) {
+        self.len = self.len.min(len.min(N) as u32);
     }
 
     /// The `i`-th value from the oldest.
@@ -169,17 +169,17 @@ mod tests {
             (None, None, None, None)
         );
         r.drop_front();
-        r.pop_back();
+        r.truncate(0);
         assert!(r.is_empty() && r.is_full());
     }
 
     proptest! {
         /// Any sequence of operations behaves like `VecDeque` bounded at N.
         #[test]
-        fn behaves_like_a_bounded_vecdeque(ops in proptest::collection::vec(0u8..6, 0..300)) {
+        fn behaves_like_a_bounded_vecdeque(ops in proptest::collection::vec((0u8..6, 0usize..7), 0..300)) {
             let mut r = Ring::<u32, 5>::new();
             let mut m = VecDeque::new();
-            for (i, op) in ops.into_iter().enumerate() {
+            for (i, (op, keep)) in ops.into_iter().enumerate() {
                 let v = i as u32;
                 match op {
                     0 | 1 => {
@@ -188,7 +188,7 @@ mod tests {
                         if ok { m.push_back(v); }
                     }
                     2 => prop_assert_eq!(r.pop_front(), m.pop_front()),
-                    3 => { r.pop_back(); m.pop_back(); }
+                    3 => { r.truncate(keep); m.truncate(keep); }
                     4 if i % 2 == 0 => {
                         let ok = match r.push_slot() { Some(s) => { *s = v; true } None => false };
                         prop_assert_eq!(ok, m.len() < 5);

@@ -114,6 +114,11 @@ impl Brake {
         (v1, a1, x0.saturating_add(dx))
     }
 
+    /// Distance to rest.
+    pub(crate) fn distance(&self) -> i64 {
+        self.at[3].2
+    }
+
     /// Start of the final phase (deceleration ramping back to zero), ticks.
     pub(crate) fn final_ramp_start(&self) -> i64 {
         self.total - self.phases[2].0

@@ -239,14 +239,17 @@ impl Executor {
         let k = self.seg;
         let (j, acc) = (plan.lim().jerk, plan.lim().accel);
         let mut next = None;
+        // The committed stop, where it was built to decide on halvings.
+        let mut stop = None;
         if !self.hold
-            && s_tail - self.x <= self.v.max(j / 16)
+            && s_tail - self.x <= self.v.max(j / 2)
             && self.v <= plan.lim().creep
             && self.a.abs() <= j
             && self.last_step_ok(plan, s_tail - self.x)
         {
             // Within one tick at the current (creep) speed of the stop, or
-            // J·Ts³/16 short of it at rest: step onto it.
+            // J·Ts³/2 short of it at rest (the most a step from rest to rest
+            // can take within the jerk limit: `last_step_ok`): step onto it.
             next = Some((s_tail, 0, 0));
         } else if !self.hold {
             // Near rest, finer moves let the tool creep up to a stop point.
@@ -270,20 +273,39 @@ impl Executor {
             // it when only that was. Only when a tick's jerk moves the
             // acceleration by more than an eighth of its bound: at lower
             // jerk limits the candidates are fine enough.
+            //
+            // Above the hold, while no halving has been safe, they go on up
+            // to `HALVINGS_ABOVE_HOLD` times: otherwise the speed can stay
+            // below a ceiling by up to an eighth of the bound's speed change
+            // per tick, creeping towards it at the hold's acceleration for
+            // a whole segment (and more so at a higher jerk limit, which
+            // would make the cycle longer).
+            //
+            // At lower jerk limits, too, below the hold when the committed
+            // stop ends within a tick's travel of the end of what is
+            // planned: there the halvings bring the stop onto that point
+            // instead of short of it, which would leave a creep of several
+            // ticks (whose length varies with every limit).
+            let fine = j > acc / 8;
             let hi_a = (self.a + j).min(acc);
-            let (lo, hi) = match next {
-                _ if j <= acc / 8 => (0, 0),
-                None => ((self.a - j).max(-acc), self.a),
-                Some((_, _, a2)) if a2 == self.a => (self.a, hi_a),
-                _ => (0, 0),
+            let lands_near = |stop: &mut Option<Brake>| {
+                let b = stop.insert(Brake::new(self.v, self.a, acc, j));
+                let end = self.x.saturating_add(b.distance());
+                end >= s_tail.saturating_sub(self.v.max(1))
+            };
+            let (lo, hi, most) = match next {
+                None if fine || lands_near(&mut stop) => ((self.a - j).max(-acc), self.a, HALVINGS),
+                Some((_, _, a2)) if fine && a2 == self.a => (self.a, hi_a, HALVINGS_ABOVE_HOLD),
+                _ => (0, 0, 0),
             };
             let (mut lo, mut hi) = (lo, hi);
             // Zero first where the range holds it: the halving's own points
             // need not include it, and then at a ceiling the acceleration
             // alternates between them from tick to tick instead of settling.
             let zero_first = lo < 0 && hi > 0;
-            for h in 0..HALVINGS + usize::from(zero_first) {
-                if hi - lo <= 1 {
+            let mut safe = false;
+            for h in 0..most + usize::from(zero_first) {
+                if hi - lo <= 1 || (safe && h >= HALVINGS + usize::from(zero_first)) {
                     break;
                 }
                 let a_end = if h == 0 && zero_first {
@@ -295,6 +317,7 @@ impl Executor {
                     Some(c) => {
                         next = Some(c);
                         lo = a_end;
+                        safe = true;
                     }
                     None => hi = a_end,
                 }
@@ -304,7 +327,7 @@ impl Executor {
         // or feed hold: follow the committed stop (jerk within ±J).
         let a_prev = self.a;
         let (x2, v2, a2) = next.unwrap_or_else(|| {
-            let b = Brake::new(self.v, self.a, acc, j);
+            let b = stop.unwrap_or_else(|| Brake::new(self.v, self.a, acc, j));
             let (v2, a2, dx) = b.walk(ONE);
             (self.x.saturating_add(dx.max(0)), v2, a2)
         });
@@ -453,6 +476,9 @@ impl Executor {
 /// How often the executor halves the range of a tick's end acceleration
 /// between the last safe candidate and the first unsafe one.
 const HALVINGS: usize = 3;
+
+/// How often at most above a hold, while none of them has been safe.
+const HALVINGS_ABOVE_HOLD: usize = 8;
 
 /// A committed stop from arc length `x` on segment `k`.
 struct Stop {

@@ -157,7 +157,14 @@
 //! times between the last safe candidate and the first unsafe one, trying
 //! zero first where the range holds it, each end acceleration reached at
 //! the jerk limit and then held (the jerk then is within `±J` as well, and
-//! the tool settles on a ceiling with zero acceleration). Hence
+//! the tool settles on a ceiling with zero acceleration); above a hold it
+//! goes on halving (up to eight times) until one is safe, so that the speed
+//! settles on the ceiling itself rather than up to an eighth of a tick's
+//! speed change below it. At any jerk limit it also halves below the hold
+//! while the committed stop ends within a tick's travel of the end of what
+//! is planned, so that the stop lands on that point instead of short of it
+//! (a creep of several ticks otherwise, whose length varies with every
+//! limit: cycles not monotone in the limits). Hence
 //! tangential jerk `<= J`, tangential acceleration `<= ρA`, and every
 //! physical ceiling respected (a lower override is reached at the
 //! acceleration limit, as in Grbl). The per-axis jerk of a polyline is not
@@ -165,9 +172,9 @@
 //! tick); this planner bounds the tangential jerk, as issue 6 allows.
 //!
 //! At a stop (the end of a path, or of what is buffered) the tool arrives at
-//! creep speed (`min(J·Ts, ρ·A)·Ts/2`) or less and steps onto the point,
-//! only when that last step, and the rest after it, keep the third
-//! difference of the arc length within `J·Ts³`. A corner is never passed
+//! creep speed (`min(J·Ts, ρ·A)·Ts/2`) or less (or rests within `J·Ts³/2`
+//! of it) and steps onto the point, only when that last step, and the rest
+//! after it, keep the third difference of the arc length within `J·Ts³`. A corner is never passed
 //! slower than the creep speed, nor faster than a reversal allows within
 //! the corner share (so the tool never stalls on one).
 //!
