@@ -322,6 +322,15 @@ impl Executor {
                     None => hi = a_end,
                 }
             }
+            // Nothing safe, no halvings, and the acceleration within a
+            // tick's jerk of zero: end the tick at zero acceleration if that
+            // is safe. A tick's jerk steps the acceleration by `J·Ts`, so
+            // from an acceleration off that grid zero is out of reach, and at
+            // a ceiling the tool would hunt from tick to tick between a step
+            // above zero and the stop's step below it.
+            if next.is_none() && most == 0 && self.a != 0 && self.a.abs() <= j {
+                next = self.candidate(plan, k, &ramp_phases(self.a, 0, j));
+            }
         }
         // None safe (a phase change inside the tick, or a lower override),
         // or feed hold: follow the committed stop (jerk within ±J).

@@ -148,7 +148,12 @@
 //! quadratic of each constant-jerk phase, and the node's distance must lie
 //! outside it. Nodes crossed within the tick are checked the same way. When
 //! no candidate is safe (a phase change inside the tick, a feed hold, a
-//! lower override), the executor follows the committed stop exactly. When
+//! lower override), the executor follows the committed stop exactly, unless
+//! the acceleration is within a tick's jerk of zero and the tick that ends
+//! at zero acceleration is safe: a tick's jerk steps the acceleration by
+//! `J·Ts`, so from an acceleration off that grid zero is out of reach, and
+//! at a ceiling the tool would hunt between a step above zero and the
+//! stop's step below it from tick to tick. When
 //! a tick's jerk is large against the acceleration bound (`J·Ts > ρA/8`),
 //! the steps between candidates are too coarse (at `J·Ts >= ρA` a tick goes
 //! from no acceleration to full), and riding a ceiling would alternate
