@@ -242,14 +242,16 @@ impl Executor {
         // The committed stop, where it was built to decide on halvings.
         let mut stop = None;
         if !self.hold
-            && s_tail - self.x <= self.v.max(j / 2)
+            && s_tail - self.x <= self.v.max((j / 2).min(acc))
             && self.v <= plan.lim().creep
             && self.a.abs() <= j
             && self.last_step_ok(plan, s_tail - self.x)
         {
             // Within one tick at the current (creep) speed of the stop, or
-            // J·Ts³/2 short of it at rest (the most a step from rest to rest
-            // can take within the jerk limit: `last_step_ok`): step onto it.
+            // at rest short of it by what a step from rest to rest may take
+            // (its third differences reach twice the step: J·Ts³/2, as
+            // `last_step_ok` checks; its second difference the step itself:
+            // at most ρA·Ts²): step onto it.
             next = Some((s_tail, 0, 0));
         } else if !self.hold {
             // Near rest, finer moves let the tool creep up to a stop point.
@@ -353,8 +355,12 @@ impl Executor {
             // the jerk limit.
             self.a = (a_prev + j).min(0);
         }
-        if self.x >= s_tail {
-            // On the end of what is planned (stepped onto at creep speed).
+        if self.x >= s_tail && a_prev.abs() <= j {
+            // On the end of what is planned (stepped onto at creep speed, or
+            // a stop landing on it): at rest. From a deceleration larger
+            // than a tick's jerk that would break the jerk limit, so there
+            // the stop's last tick keeps its speed and acceleration (the
+            // position cannot pass the end) and comes to rest in the next.
             self.v = 0;
             self.a = 0;
         }
@@ -363,7 +369,7 @@ impl Executor {
         self.reached = plan.front_index().wrapping_add(reached as u32);
         if self.hold {
             MotionState::Holding
-        } else if self.x >= s_tail {
+        } else if self.x >= s_tail && self.at_rest() {
             if done {
                 MotionState::Done
             } else {

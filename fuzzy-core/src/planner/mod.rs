@@ -177,8 +177,8 @@
 //! tick); this planner bounds the tangential jerk, as issue 6 allows.
 //!
 //! At a stop (the end of a path, or of what is buffered) the tool arrives at
-//! creep speed (`min(J·Ts, ρ·A)·Ts/2`) or less (or rests within `J·Ts³/2`
-//! of it) and steps onto the point, only when that last step, and the rest
+//! creep speed (`min(J·Ts, ρ·A)·Ts/2`) or less (or rests within
+//! `min(J·Ts³/2, ρA·Ts²)` of it) and steps onto the point, only when that last step, and the rest
 //! after it, keep the third difference of the arc length within `J·Ts³`. A corner is never passed
 //! slower than the creep speed, nor faster than a reversal allows within
 //! the corner share (so the tool never stalls on one).
