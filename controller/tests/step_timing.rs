@@ -27,19 +27,20 @@ const TWO_US: f64 = 168.0;
 
 /// The step timer interrupt on a 168 MHz STM32F4, modelled from the
 /// engine's instruction counts in QEMU (`firmware/src/bin/cost.rs`,
-/// `cost steps3x`: `batch_mean` for a batch, `window_batch_mean` for one
-/// that changes windows; the figures in firmware/README.md) at 1.65 cycles
-/// an instruction, 2 cycles a count of the 84 MHz timer: 0.25 µs from the
+/// `cost steps3x`; the figures in firmware/README.md) at 1.65 cycles an
+/// instruction, 2 cycles a count of the 84 MHz timer: 0.25 µs from the
 /// compare match to the pin write (entry, the pending batch's store), the
 /// counter read right after, `batch_mean × 1.65 / 2` counts before the
 /// next batch is ready, `(window_batch_mean − batch_mean) × 1.65 / 2` more
-/// after a window change; the tick hands its plan over 0.1 ms into its
+/// for a window change and `(pull_batch_mean − batch_mean) × 1.65 / 2`
+/// more for a plan taken; the tick hands its plan over 0.1 ms into its
 /// period.
 const LOADED: Model = Model {
     latency: 21,
     read_after: 2,
-    busy: 189,
-    busy_window: 324,
+    busy: 237,
+    busy_window: 340,
+    busy_pull: 234,
     tick_delay: 8_400,
 };
 

@@ -172,13 +172,39 @@ impl StepConfig {
             setup,
             early: coalesce,
             filter,
-            pull_slack: ns_to_counts(4_000, timer_hz),
+            batch: ns_to_counts(ENGINE_BATCH_NS, timer_hz),
+            pull_slack: ns_to_counts(
+                ENGINE_BATCH_NS + ENGINE_PULL_NS - ENGINE_TOLERANCE_NS,
+                timer_hz,
+            ),
+            window_slack: ns_to_counts(
+                ENGINE_BATCH_NS + ENGINE_WINDOW_NS - ENGINE_TOLERANCE_NS,
+                timer_hz,
+            ),
             invert_step,
             invert_dir,
             timer_hz,
         })
     }
 }
+
+/// The step engine's time for one batch on a 168 MHz STM32F4, about
+/// (the `cost steps3x` figures in firmware/README.md at 1.65 cycles an
+/// instruction): [`Timing::batch`], by which it counts the batches due
+/// before an axis's next edge.
+pub const ENGINE_BATCH_NS: u32 = 2_700;
+/// Spare time the engine wants before the next edges (less the batches
+/// due before them) to change windows ahead of a window's end, beyond a
+/// batch. Tuned on the loaded interrupt model of `tests/step_timing.rs`:
+/// the change itself takes longer (up to about 4 µs), so it may make the
+/// next edge late by up to [`ENGINE_TOLERANCE_NS`]; asking for all of it
+/// finds no gap at all at about 100 kHz, and the change then comes at its
+/// deadline, a quarter window on, wherever the edges are.
+pub const ENGINE_WINDOW_NS: u32 = 2_300;
+/// The same for taking the next plan off the queue.
+pub const ENGINE_PULL_NS: u32 = 2_750;
+/// How late a window change or a plan taken may make the next edge.
+pub const ENGINE_TOLERANCE_NS: u32 = 1_700;
 
 /// `ns` in counts of a `hz` timer, rounded up.
 pub const fn ns_to_counts(ns: u32, hz: u32) -> u32 {
@@ -260,9 +286,13 @@ pub struct Timing {
     pub early: u32,
     /// Reversal filter, counts (0: off).
     pub filter: u32,
-    /// Time to spare before the next edge for the engine to take the
-    /// next plan (4 µs), counts.
+    /// The engine's time for a batch ([`ENGINE_BATCH_NS`]), counts.
+    pub batch: u32,
+    /// Time to spare before the next edges for the engine to take the
+    /// next plan (a batch and the take, less the tolerance), counts.
     pub pull_slack: u32,
+    /// The same to change windows ahead of the window's end, counts.
+    pub window_slack: u32,
     /// Axes (bit per axis) whose step pin is active low.
     pub invert_step: u8,
     /// Axes whose direction pin is high for negative motion.

@@ -563,6 +563,7 @@ pub struct StepEngine<'a> {
     /// `early + low`: a falling edge's latest time before the next
     /// crossing.
     early_low: u32,
+    plans_taken: u32,
 }
 
 impl<'a> StepEngine<'a> {
@@ -604,6 +605,7 @@ impl<'a> StepEngine<'a> {
             rise_edges: [0, 1, 2].map(|i| Edges::of(1 << i, timing.invert_step & 1 << i == 0)),
             fall_edges: [0, 1, 2].map(|i| Edges::of(1 << i, timing.invert_step & 1 << i != 0)),
             early_low: timing.early.wrapping_add(timing.low),
+            plans_taken: 0,
         }
     }
 
@@ -710,7 +712,9 @@ impl<'a> StepEngine<'a> {
         if b.axes & 4 != 0 {
             self.step_axis::<2>(t);
         }
-        if b.rollover {
+        // A window stepped with the next plan here changes when there is
+        // time to spare ([`Self::plan_batch`]).
+        if b.rollover && !(self.have_next && self.window_stepped()) {
             self.rollover();
         }
     }
@@ -868,9 +872,10 @@ impl<'a> StepEngine<'a> {
         }
         let held = self.plans.handle();
         let plans = core::mem::replace(&mut self.plans, held);
-        let report = self.report;
+        let (report, taken) = (self.report, self.plans_taken);
         *self = Self::new(timing, plans, self.shared, start, first);
         self.report = report;
+        self.plans_taken = taken;
     }
 
     /// Software stepping: every batch due up to `limit` written through
@@ -898,26 +903,26 @@ impl<'a> StepEngine<'a> {
             return false;
         }
         let base = self.window_end;
-        let plans = [
-            self.plans.axis::<0>(),
-            self.plans.axis::<1>(),
-            self.plans.axis::<2>(),
-        ];
-        for (a, ap) in self.axes.iter_mut().zip(plans.iter()) {
-            a.nxt.set(&Crossings::of(ap, base));
-            a.nxt_start = ap.start;
-            a.nxt_consumed = 0;
-        }
+        let mask =
+            self.take_axis::<0>(base) | self.take_axis::<1>(base) | self.take_axis::<2>(base);
         self.plans.pop();
+        self.plans_taken = self.plans_taken.wrapping_add(1);
         self.have_next = true;
-        let mut mask = 0u8;
-        for (i, a) in self.axes.iter().enumerate() {
-            if a.cur().left <= 1 {
-                mask |= 1 << i;
-            }
-        }
         self.refresh_mask(mask);
         true
+    }
+
+    /// Axis `I` of the plan at the queue's head as the next window's
+    /// crossings (the window starting at `base`); its bit if its next
+    /// event may look at them (one crossing or none left in this window).
+    #[inline(always)]
+    fn take_axis<const I: usize>(&mut self, base: u32) -> u8 {
+        let p = self.plans.axis::<I>();
+        let a = &mut self.axes[I];
+        a.nxt.set(&Crossings::of(&p, base));
+        a.nxt_start = p.start;
+        a.nxt_consumed = 0;
+        ((a.cur.left <= 1) as u8) << I
     }
 
     /// The window ends: the next plan's crossings become the running ones
@@ -1000,42 +1005,91 @@ impl<'a> StepEngine<'a> {
         (moved as u8) << I
     }
 
+    /// Everything of the running window is stepped: no crossing left and
+    /// nothing owed (its end count can no longer change).
+    pub fn window_stepped(&self) -> bool {
+        let [a0, a1, a2] = &self.axes;
+        a0.cur.left | a1.cur.left | a2.cur.left == 0 && a0.owed | a1.owed | a2.owed == 0
+    }
+
+    /// Plans taken from the queue so far (wrapping).
+    pub fn plans_taken(&self) -> u32 {
+        self.plans_taken
+    }
+
+    /// Time to spare before the axes' next edges, counts from `now`: the
+    /// least of each axis's latest time less the batches before it (one
+    /// per axis due earlier, [`Timing::batch`]), 0 if past.
+    #[inline(always)]
+    fn slack(&self, now: u32) -> u32 {
+        let [e0, e1, e2] = &self.events;
+        let (mut a, mut b, mut c) = (
+            until(e0.latest, now),
+            until(e1.latest, now),
+            until(e2.latest, now),
+        );
+        if a > b {
+            core::mem::swap(&mut a, &mut b);
+        }
+        if b > c {
+            core::mem::swap(&mut b, &mut c);
+        }
+        if a > b {
+            core::mem::swap(&mut a, &mut b);
+        }
+        let batch = self.t.batch;
+        a.min(b.saturating_sub(batch))
+            .min(c.saturating_sub(2 * batch))
+    }
+
     fn plan_batch(&mut self) {
         // Once every crossing of the running window is stepped (nothing owed)
-        // and the next plan is here, change windows now rather than in a
-        // batch of its own at the window's end: nothing can change the
-        // count at that end any more, and the next window's first steps then
-        // need no window change before them.
+        // and the next plan is here, nothing can change the count at the
+        // window's end any more: the window change may come at any moment
+        // from then until a quarter of the next window, and it comes when
+        // the timer has time to spare before the next edge, so that it never
+        // holds a step up. Until then the next window's steps go out on its
+        // plan held as lookahead (`RiseNext`).
         let now = self.now;
-        let [a0, a1, a2] = &self.axes;
-        if a0.cur.left | a1.cur.left | a2.cur.left == 0
-            && a0.owed | a1.owed | a2.owed == 0
-            && self.have_next
-            && until(self.window_end, now) < self.t.window
-        {
-            self.rollover();
+        let mut defer = 0;
+        let mut rolled = false;
+        if self.have_next && self.window_stepped() && until(self.window_end, now) < self.t.window {
+            let deadline = self.window_end.wrapping_add(self.t.window / 4);
+            if self.slack(now) >= self.t.window_slack || !after(deadline, now) {
+                self.rollover();
+                rolled = true;
+            } else {
+                defer = self.t.window / 4;
+            }
         }
-        self.compute_batch();
+        self.compute_batch(defer);
         // The next plan is taken when the timer has a moment to spare (or
         // half a window before it is needed), so that its copy never holds
-        // up a step.
+        // up a step; right after a window change only with time for both.
         if !self.have_next && self.plans.ready() {
             let now = self.now;
-            let spare = until(self.pending.at, now) >= self.t.pull_slack;
+            let need = if rolled {
+                self.t.pull_slack + self.t.window_slack
+            } else {
+                self.t.pull_slack
+            };
+            let spare = self.slack(now) >= need;
             let needed = until(self.window_end, now) < self.t.window / 2;
             if (spare || needed) && self.pull() {
-                self.compute_batch();
+                self.compute_batch(0);
             }
         }
     }
 
+    /// The next batch; `defer`: counts past the window's end its change
+    /// may wait (the window stepped, the next plan held).
     #[inline(always)]
-    fn compute_batch(&mut self) {
+    fn compute_batch(&mut self, defer: u32) {
         let now = self.now;
         // Signed counts from now (every time kept within ±2^31 of it);
         // `wait` is the least of them, at least 0.
         let ahead = |x: u32| x.wrapping_sub(now) as i32;
-        let to_end = ahead(self.window_end);
+        let to_end = ahead(self.window_end.wrapping_add(defer));
         let half = (self.t.window / 2) as i32;
         // Without lookahead (start-up, or a late tick) look again in half a
         // tick rather than at the window's end.

@@ -25,8 +25,10 @@ pub struct Model {
     /// From that reading until the next batch is ready (the engine's own
     /// work); a batch due earlier is written then, late.
     pub busy: u32,
-    /// More of it after a batch that ends a window.
+    /// More of it for a window change.
     pub busy_window: u32,
+    /// More of it for a plan taken from the queue.
+    pub busy_pull: u32,
     /// When the tick hands its plan over, after the tick's start.
     pub tick_delay: u32,
 }
@@ -38,14 +40,15 @@ impl Model {
         read_after: 0,
         busy: 0,
         busy_window: 0,
+        busy_pull: 0,
         tick_delay: 0,
     };
 
     /// The most a write can trail its due time under this model, counts:
     /// due while the interrupt works out one batch, then another with a
-    /// window change.
+    /// window change and a plan taken.
     pub const fn lateness(&self) -> u32 {
-        self.latency + 2 * (self.read_after + self.busy) + self.busy_window
+        self.latency + 2 * (self.read_after + self.busy) + self.busy_window + self.busy_pull
     }
 }
 
@@ -64,9 +67,10 @@ pub struct Trace {
     pub first_window: u64,
     /// Each write: time (counts after tick 0) and edges.
     pub writes: Vec<(u64, Edges)>,
-    /// When window `k` ended for the engine: the write of the batch that
-    /// changed windows, or (a change while working out the next batch, all
-    /// the window's steps done) the reading before it.
+    /// When window `k` ended for the engine: the write after which its
+    /// crossings were all stepped (nothing owed), or its window change if
+    /// that came first (steps left over are owed, lag). The next window's
+    /// steps come after both.
     pub window_ends: Vec<u64>,
     /// The engine's figures at the end.
     pub report: StepReport,
@@ -102,19 +106,34 @@ pub fn run(
     let (mut k, mut next_tick) = (0usize, model.tick_delay as u64);
     let mut now = first - w;
     let mut cpu_free = 0u64;
-    let mut started = false;
+    // Window 0 starts with the first window change; `recorded`: the
+    // running window's end is in `window_ends`.
+    let (mut started, mut recorded) = (false, false);
+    let mut taken = engine.plans_taken();
+    // After each call into the engine at `t`: the cost of a window change
+    // or a plan taken, and where the running window ended.
+    let mut after_call = |engine: &StepEngine, t: u64, seen: u32, cpu_free: &mut u64| {
+        if engine.window_end() != seen {
+            if started && !recorded {
+                window_ends.push(t);
+            }
+            started = true;
+            recorded = false;
+            *cpu_free += model.busy_window as u64;
+        }
+        if engine.plans_taken() != taken {
+            taken = engine.plans_taken();
+            *cpu_free += model.busy_pull as u64;
+        }
+        if started && !recorded && engine.window_stepped() {
+            window_ends.push(t);
+            recorded = true;
+        }
+    };
     loop {
         let seen = engine.window_end();
         let due = engine.due();
-        if engine.window_end() != seen {
-            // A window change while working out the batch (the running
-            // window's steps all done): it ended then.
-            if started {
-                window_ends.push(now);
-            }
-            started = true;
-            cpu_free += model.busy_window as u64;
-        }
+        after_call(&engine, now, seen, &mut cpu_free);
         let rel = due.at.wrapping_sub(now as u32) as i32;
         let due_abs = now + rel.max(0) as u64;
         let write_at = (due_abs + model.latency as u64).max(cpu_free);
@@ -133,20 +152,12 @@ pub fn run(
             break;
         }
         writes.push((write_at, due.edges));
-        let before = engine.window_end();
+        let seen = engine.window_end();
         let read = write_at + model.read_after as u64;
         engine.done(read as u32);
         now = read;
         cpu_free = read + model.busy as u64;
-        if engine.window_end() != before {
-            // The first window change starts window 0; each later one ends
-            // one.
-            if started {
-                window_ends.push(write_at);
-            }
-            started = true;
-            cpu_free += model.busy_window as u64;
-        }
+        after_call(&engine, write_at, seen, &mut cpu_free);
     }
     let mut report = engine.report();
     report.plan_overruns = queue.report().plan_overruns;

@@ -132,8 +132,13 @@ struct Measured {
 struct StepStats {
     plan: Stat,
     batch: Stat,
-    /// The batches that changed windows (also in `batch`).
+    /// The batches that changed windows and took no plan (also in
+    /// `batch`).
     window: Stat,
+    /// The batches that took a plan and changed no window.
+    pull: Stat,
+    /// The batches that did both.
+    both: Stat,
     steps: u64,
 }
 
@@ -142,6 +147,8 @@ impl StepStats {
         self.plan.merge(&o.plan);
         self.batch.merge(&o.batch);
         self.window.merge(&o.window);
+        self.pull.merge(&o.pull);
+        self.both.merge(&o.both);
         self.steps += o.steps;
     }
 
@@ -184,7 +191,7 @@ fn run_window(
     let end = now.wrapping_add(window).wrapping_sub(1);
     let before = engine.position();
     loop {
-        let w0 = engine.window_end();
+        let (w0, p0) = (engine.window_end(), engine.plans_taken());
         let t0 = cycles();
         let d = engine.due();
         if (d.at.wrapping_sub(end) as i32) > 0 {
@@ -194,8 +201,11 @@ fn run_window(
         engine.done(d.at);
         let dt = cycles_since(t0);
         s.batch.add(dt);
-        if engine.window_end() != w0 {
-            s.window.add(dt);
+        match (engine.window_end() != w0, engine.plans_taken() != p0) {
+            (true, false) => s.window.add(dt),
+            (false, true) => s.pull.add(dt),
+            (true, true) => s.both.add(dt),
+            (false, false) => {}
         }
     }
     let after = engine.position();
@@ -341,13 +351,18 @@ fn steps3x(timing_of: impl Fn(&StepConfig) -> Timing) {
     // The engine's share of the core over the run's duration.
     let per_s = qemu_instructions(s.batch.total) * TICK_HZ as u64 / ticks as u64;
     hprintln!(
-        "cost steps3x rates_khz=150,120,105 ticks={} steps={} batches={} batch_mean={} batch_worst={} window_batch_mean={} per_step={} plan_mean={} plan_worst={} lag_ticks={} engine_permille={}",
+        "cost steps3x rates_khz=150,120,105 ticks={} steps={} batches={} batch_mean={} batch_worst={} window_batch_mean={} window_batches={} pull_batch_mean={} pull_batches={} both_batch_mean={} both_batches={} per_step={} plan_mean={} plan_worst={} lag_ticks={} engine_permille={}",
         ticks,
         s.steps,
         s.batch.n,
         mean(&s.batch, s.batch.n),
         worst(&s.batch),
         mean(&s.window, s.window.n),
+        s.window.n,
+        mean(&s.pull, s.pull.n),
+        s.pull.n,
+        mean(&s.both, s.both.n),
+        s.both.n,
         s.per_step(),
         mean(&s.plan, s.plan.n),
         worst(&s.plan),
