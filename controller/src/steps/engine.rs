@@ -563,6 +563,7 @@ pub struct StepEngine<'a> {
     /// `early + low`: a falling edge's latest time before the next
     /// crossing.
     early_low: u32,
+    /// Plans taken from the queue (wrapping; for cost figures and models).
     plans_taken: u32,
 }
 
@@ -1054,12 +1055,13 @@ impl<'a> StepEngine<'a> {
         let mut defer = 0;
         let mut rolled = false;
         if self.have_next && self.window_stepped() && until(self.window_end, now) < self.t.window {
-            let deadline = self.window_end.wrapping_add(self.t.window / 4);
+            let grace = self.t.window / 4;
+            let deadline = self.window_end.wrapping_add(grace);
             if self.slack(now) >= self.t.window_slack || !after(deadline, now) {
                 self.rollover();
                 rolled = true;
             } else {
-                defer = self.t.window / 4;
+                defer = grace;
             }
         }
         self.compute_batch(defer);
