@@ -119,6 +119,12 @@ impl Sf {
 
     /// Quotient, truncated; `None` when dividing by zero.
     pub const fn div(self, o: Sf) -> Option<Sf> {
+        self.div_inline(o)
+    }
+
+    /// [`Self::div`], inlined into the caller (the planner's quotient).
+    #[inline(always)]
+    pub const fn div_inline(self, o: Sf) -> Option<Sf> {
         if o.mant == 0 {
             return None;
         }
@@ -129,7 +135,7 @@ impl Sf {
         // hardware division.
         let (q, _) = divlu(self.mant >> 1, (self.mant & 1) << 31, o.mant);
         let e = self.exp.saturating_sub(o.exp).saturating_sub(31);
-        Some(Sf::from_u64_exp(q as u64, e))
+        Some(Sf::from_u64_exp_inline(q as u64, e))
     }
 
     /// Sum (both operands are positive), truncated.
@@ -211,6 +217,12 @@ impl Sf {
     /// `self · 2^k` as an integer, rounded to nearest, saturating at
     /// `i64::MAX`.
     pub const fn to_i64_scaled(self, k: i32) -> i64 {
+        self.to_i64_scaled_inline(k)
+    }
+
+    /// [`Self::to_i64_scaled`], inlined into the caller.
+    #[inline(always)]
+    pub const fn to_i64_scaled_inline(self, k: i32) -> i64 {
         if self.mant == 0 {
             return 0;
         }

@@ -7,7 +7,7 @@
 //! Products are ordered through time-like quotients (`a/J`, `v/J` in ticks)
 //! so that tiny per-tick accelerations and jerks keep their precision.
 
-use super::q::{div, mul, sqrt, SIXTH};
+use super::q::{div, mul, sqrt, ONE, SIXTH};
 
 /// Up to three phases of constant jerk.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -248,6 +248,20 @@ pub(crate) fn integrate(
             break;
         }
         let h = dur.min(t);
+        if h == ONE {
+            // A whole tick: every product with `h` or `h²` is exact (the
+            // same sums as below, without those products).
+            if j == 0 {
+                x = x.saturating_add(v + a / 2);
+                v = v.saturating_add(a);
+            } else {
+                x = x.saturating_add(v + a / 2 + mul(j, SIXTH));
+                v = v.saturating_add(a + j / 2);
+                a = a.saturating_add(j);
+            }
+            t -= h;
+            continue;
+        }
         let h2 = mul(h, h);
         if j == 0 {
             // A hold: the jerk's terms are zero (the same sums, fewer products).
@@ -266,7 +280,6 @@ pub(crate) fn integrate(
 
 #[cfg(test)]
 mod tests {
-    use super::super::q::ONE;
     use super::*;
 
     fn q(v: f64) -> i64 {

@@ -113,6 +113,12 @@ pub(crate) struct Limits {
     pub jerk: i64,
     /// Chord tolerance, mm.
     pub chord: i64,
+    /// The chord bound cannot lie below the feed bound (the stored ceilings
+    /// included) where `κ·chord_free < 2δ`: `chord_free` is `H² + δ²` with
+    /// margins, `2H` above `feed_max` by more than the storage's rounding
+    /// (`Lookahead::push` then skips the bound's division and root);
+    /// `i64::MAX` where the margins would not hold.
+    pub chord_free: i64,
     /// Reach of a point's corner limit (2.5 ticks at `feed_max`; with
     /// smoothing over `n` ticks, `(n + 1)` ticks at `feed_max` plus the
     /// window margin), mm.
@@ -239,6 +245,15 @@ impl MotionConfig {
             return Err(ConfigError::Resolution);
         }
         let axis_accel = self.axis_accel_max_mm_s2.map(accel);
+        let chord_free = {
+            let h = feed_max.saturating_add(feed_max / 512).saturating_add(64) / 2;
+            let need = q::mul(h, h).saturating_add(q::mul(chord, chord));
+            if need >= 1 << 24 {
+                need.saturating_add(need >> 20).saturating_add(1)
+            } else {
+                i64::MAX
+            }
+        };
         if !(1..=SMOOTHING_MAX).contains(&self.smoothing_ticks) {
             return Err(ConfigError::Smoothing);
         }
@@ -272,6 +287,7 @@ impl MotionConfig {
             envelope_decel: tangential - tangential / 20,
             jerk,
             chord,
+            chord_free,
             reach,
             cap_reach,
             smoothing: n as u32,

@@ -193,7 +193,20 @@ impl Executor {
     /// binding node or the end of the stretch: module docs).
     fn points_ok(&self, plan: &Plan, c: &Stop, x0: i64, x1: i64, upper: i64) -> bool {
         let tail = plan.finalized().saturating_sub(1);
+        // The nodes before `x0` are not checked: where the stretch starts
+        // ahead of the stop's start, skip to the first one at or past it
+        // (found by bisection), unless the end of what is planned comes
+        // first.
         let mut i = c.k + 1;
+        if let Some(t) = plan.node(tail).filter(|_| x0 > c.x) {
+            if i <= tail && t.s < x0 {
+                if t.s > x1 {
+                    return true;
+                }
+                return c.b.passes_at_most(t.s - c.x, 0);
+            }
+            i = plan.first_at_or_after(i, tail, x0);
+        }
         while let Some(n) = plan.node(i) {
             if n.s > x1 {
                 break;

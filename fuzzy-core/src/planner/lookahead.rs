@@ -24,7 +24,7 @@ use heapless::deque::DequeInner;
 use heapless::vec::{OwnedVecStorage, VecStorage, ViewVecStorage};
 
 use super::config::Limits;
-use super::q::{div, mul, reach, sqrt, ONE};
+use super::q::{div, exceeds_reach, mul, reach, sqrt, surely_below_reach, ONE};
 use crate::scheduler::ScheduledPoint;
 use crate::segment::{zip3, Segment};
 use crate::units::{CurvaturePerMm, FeedMmPerMin, Point3Mm};
@@ -354,7 +354,7 @@ impl Plan {
         // Chord error: v·Ts <= 2·sqrt(2δ/κ − δ²).
         let kappa = p.curvature.0.to_bits();
         let mut own = i64::MAX;
-        if kappa > 0 {
+        if kappa > 0 && !chord_free(lim, kappa) {
             let r = div(2 * lim.chord, kappa) - mul(lim.chord, lim.chord);
             if r > 0 {
                 own = 2 * sqrt(r);
@@ -379,7 +379,7 @@ impl Plan {
                 self.finalize(false, false);
                 return Ok(());
             };
-            let seg = st(axis_cap(&lim.axis_speed, dir));
+            let seg = st(axis_cap(&lim.axis_speed, lim.feed_max, dir));
             last.cap = seg;
             last.ceil = last.ceil.min(seg);
             node.ceil = node.ceil.min(seg);
@@ -576,52 +576,69 @@ impl Plan {
         let mut sum = n.turn.map(i64::from);
         let mut weighted = [0i64; 3];
         let out = self.out_dir(i);
+        // The next vertex on either side and its distance (`FAR`: none
+        // within reach); a side not taken keeps its vertex.
+        const FAR: i64 = i64::MAX;
+        let dist = |k: Option<usize>| -> i64 {
+            match k.and_then(|k| self.nodes.get(k)) {
+                Some(m) => {
+                    // (Arc lengths grow along the buffer.)
+                    let d = if m.s < n.s { n.s - m.s } else { m.s - n.s };
+                    if d <= lim.reach {
+                        d
+                    } else {
+                        FAR
+                    }
+                }
+                None => FAR,
+            }
+        };
         let (mut left, mut right) = (i.checked_sub(1), i + 1);
+        let (mut dl, mut dr) = (dist(left), dist(Some(right)));
         loop {
-            // The nearer of the next vertices on either side, within reach.
-            let dl = left
-                .and_then(|l| self.nodes.get(l))
-                .map(|m| n.s - m.s)
-                .filter(|&d| d <= lim.reach);
-            let dr = self
-                .nodes
-                .get(right)
-                .map(|m| m.s - n.s)
-                .filter(|&d| d <= lim.reach);
-            let (d, from_left) = match (dl, dr) {
-                (Some(a), Some(b)) if a <= b => (a, true),
-                (Some(a), None) => (a, true),
-                (_, Some(b)) => (b, false),
-                (None, None) => break,
-            };
+            // The nearer, the left one on a tie.
+            let from_left = dl <= dr;
+            let d = if from_left { dl } else { dr };
+            if d == FAR {
+                break;
+            }
             // At travel U = d the next vertex starts to count: stop if the
             // bound is already broken there (the solution lies before it).
             // (The share is computed only where the demand exceeds its
-            // least value, the fixed `(1 − ρ)·A_a`.)
-            let broken = zip3(sum, weighted, |s, w| {
-                ((s as i128 * d as i128) >> 14) - w as i128
-            })
-            .iter()
-            .zip(lim.corner_accel.iter().zip(lim.axis_accel.iter()))
-            .zip(sum.iter().zip(out.iter()))
-            .any(|((&need, (&c, &a)), (&s, &o))| {
-                need > c as i128 && need > axis_share(lim.accel, a, c, o, s) as i128
-            });
-            if broken {
-                break;
+            // least value, the fixed `(1 − ρ)·A_a`; where nothing turned
+            // yet there is no demand.)
+            if sum != [0; 3] {
+                let mut broken = false;
+                for a in 0..3 {
+                    let need = mul_q14(sum[a], d) as i128 - weighted[a] as i128;
+                    let c = lim.corner_accel[a];
+                    if need > c as i128
+                        && need
+                            > axis_share(lim.accel, lim.axis_accel[a], c, out[a], sum[a]) as i128
+                    {
+                        broken = true;
+                        break;
+                    }
+                }
+                if broken {
+                    break;
+                }
             }
-            let m = if from_left {
+            let k = if from_left {
                 let l = left.unwrap_or(0);
                 left = l.checked_sub(1);
-                self.nodes.get(l)
+                dl = dist(left);
+                l
             } else {
                 right += 1;
-                self.nodes.get(right - 1)
+                dr = dist(Some(right));
+                right - 1
             };
-            if let Some(m) = m {
+            if let Some(m) = self.nodes.get(k) {
                 for ((s, w), &t) in sum.iter_mut().zip(weighted.iter_mut()).zip(m.turn.iter()) {
-                    *s += i64::from(t);
-                    *w = w.saturating_add(((i64::from(t) as i128 * d as i128) >> 14) as i64);
+                    let t = i64::from(t);
+                    *s += t;
+                    *w = w.saturating_add(mul_q14(t, d) as i64);
                 }
             }
         }
@@ -859,7 +876,11 @@ impl Plan {
         if i + 1 < self.finalized {
             own = own.min(self.cap_eff(i));
             if let Some(m) = self.nodes.get(i + 1) {
-                let r = self.reach_from(ld(m.env), m.s - n.s);
+                let (t, d) = (ld(m.env), m.s - n.s);
+                if surely_below_reach(own, t, self.lim.envelope_decel, d) {
+                    return (own, true);
+                }
+                let r = self.reach_from(t, d);
                 return (own.min(r), own < r);
             }
         }
@@ -912,9 +933,32 @@ impl Plan {
         else {
             return v > 0;
         };
+        let decel = self.lim.envelope_decel;
         v > self.cap_eff(k)
-            || v > self.reach_from(ld(next.env), next.s - x)
-            || v > self.reach_from(self.lim.creep, tail.s - x)
+            || exceeds_reach(v, ld(next.env), decel, next.s - x)
+            || exceeds_reach(v, self.lim.creep, decel, tail.s - x)
+    }
+
+    /// A node in `from..=to` with no node before it (from `from`) at arc
+    /// length `x` or past it: `from` itself when the node a few places on
+    /// is already there (a short walk is cheaper), else the first such node
+    /// (`to` if none before it is) by bisection: arc lengths grow along the
+    /// buffer.
+    pub(super) fn first_at_or_after(&self, from: usize, to: usize, x: i64) -> usize {
+        const WALK: usize = 6;
+        let probe = from.saturating_add(WALK);
+        if probe >= to || self.nodes.get(probe).is_none_or(|n| n.s >= x) {
+            return from;
+        }
+        let (mut lo, mut hi) = (probe + 1, to);
+        while lo < hi {
+            let mid = lo + (hi - lo) / 2;
+            match self.nodes.get(mid) {
+                Some(n) if n.s < x => lo = mid + 1,
+                _ => hi = mid,
+            }
+        }
+        lo
     }
 
     /// Segment index (in `nodes`) containing arc length `x`, searching from `from`.
@@ -924,6 +968,18 @@ impl Plan {
             k += 1;
         }
         k
+    }
+}
+
+/// `x·d >> 14` for `x, d >= 0`, exactly (`u128`; a 32-bit multiply where
+/// both fit, as at every speed below 0.5 mm per tick).
+#[inline(always)]
+fn mul_q14(x: i64, d: i64) -> u128 {
+    let (x, d) = (x.max(0) as u64, d.max(0) as u64);
+    if (x | d) >> 32 == 0 {
+        ((x as u32 as u64 * d as u32 as u64) >> 14) as u128
+    } else {
+        (x as u128 * d as u128) >> 14
     }
 }
 
@@ -965,12 +1021,23 @@ fn l2_bound(t: &[u16; 3]) -> i64 {
     m + (x + y + z - m + 1) / 2
 }
 
+/// Whether the chord bound at curvature `kappa` (> 0) lies above the
+/// feed bound for certain ([`Limits::chord_free`]): `κ·(H² + δ²) < 2δ`,
+/// with margins for the product's and the bound's rounding.
+fn chord_free(lim: &Limits, kappa: i64) -> bool {
+    let two_delta = 2 * lim.chord;
+    mul(kappa, lim.chord_free).saturating_add(2) < two_delta - (two_delta >> 20)
+}
+
 /// The speed allowed by per-axis limits along direction `d` (Q30 unit).
-fn axis_cap(axis: &[i64; 3], d: [i32; 3]) -> i64 {
+/// An axis whose limit lies above `feed_max` by more than the quotient's
+/// and the storage's rounding cannot bind (`|d_k| <= 1`): no division.
+fn axis_cap(axis: &[i64; 3], feed_max: i64, d: [i32; 3]) -> i64 {
     let mut c = i64::MAX;
+    let free = feed_max.saturating_add(feed_max / 512).saturating_add(64);
     for (&v, &dk) in axis.iter().zip(d.iter()) {
         let comp = (dk as i64).unsigned_abs() as i64;
-        if comp > 0 {
+        if comp > 0 && v <= free {
             // v·|d_k| <= V_k  ⇒  v <= V_k / |d_k|, |d_k| in Q30.
             c = c.min(div(v, comp << 2));
         }
@@ -986,5 +1053,66 @@ mod tests {
     fn a_node_is_56_bytes() {
         // The buffer is most of the planner's RAM (firmware budget).
         assert_eq!(core::mem::size_of::<Node>(), 56);
+    }
+
+    /// The chord bound as `push` computes it where it is not skipped.
+    fn chord_bound(lim: &Limits, kappa: i64) -> i64 {
+        let r = div(2 * lim.chord, kappa) - mul(lim.chord, lim.chord);
+        if r > 0 {
+            2 * sqrt(r)
+        } else {
+            i64::MAX
+        }
+    }
+
+    #[test]
+    fn skipped_bounds_lie_above_the_feed_bound() {
+        // Feeds, ticks and tolerances over their ranges; curvatures from
+        // straight to sharp, densely near the threshold.
+        let mut x = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        let mut skipped = [0u32; 2];
+        for _ in 0..2000 {
+            let cfg = crate::planner::MotionConfig {
+                tick_us: 50 + (next() % 20_000) as u32,
+                feed_max: FeedMmPerMin::from_int(1 + (next() % 60_000) as i32),
+                axis_speed_max: [0; 3]
+                    .map(|_| FeedMmPerMin::from_int(1 + (next() % 60_000) as i32)),
+                chord_tolerance_mm: fixed::types::I32F32::from_bits(
+                    1 + (next() % (1 << 28)) as i64,
+                ),
+                ..Default::default()
+            };
+            let Ok(lim) = cfg.compile() else { continue };
+            let fmax = lim.feed_max;
+            // Stored and loaded as the node keeps it.
+            let kept = |v: i64| ld(st(v));
+            let mut kappa = 1i64 << (next() % 50);
+            for _ in 0..40 {
+                if chord_free(&lim, kappa) {
+                    skipped[0] += 1;
+                    assert!(kept(chord_bound(&lim, kappa)) >= fmax, "{cfg:?} {kappa}");
+                }
+                kappa += kappa / 16 + 1;
+            }
+            for _ in 0..40 {
+                let d = [0; 3].map(|_| (next() % (1 << 30)) as i32 - (1 << 29));
+                let Some(seg) = Segment::between_bits([0; 3], d.map(i64::from)) else {
+                    continue;
+                };
+                let full = axis_cap(&lim.axis_speed, i64::MAX - (1 << 40), seg.dir);
+                let fast = axis_cap(&lim.axis_speed, fmax, seg.dir);
+                if fast != full {
+                    skipped[1] += 1;
+                    assert!(kept(fast) >= fmax && kept(full) >= fmax, "{cfg:?} {d:?}");
+                }
+            }
+        }
+        assert!(skipped.iter().all(|&n| n > 1000), "{skipped:?}");
     }
 }

@@ -30,14 +30,20 @@ pub(crate) const SIXTH: i64 = 715_827_883;
 
 /// Saturating `a/b` (Q32); `b = 0` gives ±max. Relative error below
 /// 2^-31 (a soft-float quotient on the hardware's 32-bit divide: an exact
-/// 96/64-bit division is a ~1000-instruction loop on a Cortex-M4).
-#[inline]
+/// 96/64-bit division is a ~1000-instruction loop on a Cortex-M4). One
+/// call with the soft-float steps inlined in it: the planner divides
+/// several times per tick.
+#[inline(never)]
 pub(crate) fn div(a: i64, b: i64) -> i64 {
     if b == 0 {
         return if a >= 0 { i64::MAX } else { i64::MIN };
     }
-    let q = match Sf::from_u64(a.unsigned_abs()).div(Sf::from_u64(b.unsigned_abs())) {
-        Some(q) => q.to_i64_scaled(32),
+    let (x, y) = (
+        Sf::from_u64_inline(a.unsigned_abs()),
+        Sf::from_u64_inline(b.unsigned_abs()),
+    );
+    let q = match x.div_inline(y) {
+        Some(q) => q.to_i64_scaled_inline(32),
         None => i64::MAX,
     };
     if (a < 0) != (b < 0) {
@@ -70,6 +76,50 @@ pub(crate) fn reach(t: i64, a: i64, d: i64) -> i64 {
     Sf::from_u64_exp((sum >> shift) as u64, shift)
         .sqrt()
         .to_i64_scaled(0)
+}
+
+/// The sum under [`reach`]'s root, `t² + 2ad` (Q64, saturating).
+#[inline(always)]
+fn reach_sum(t: i64, a: i64, d: i64) -> u128 {
+    let tu = t.max(0) as u128;
+    (tu * tu).saturating_add(2 * a.max(0) as u128 * d.max(0) as u128)
+}
+
+/// Whether `(w + 2)² <= S·(1 − 2^-26)`: then `w + 2 <= √S·(1 − 2^-27)`,
+/// below [`reach`] for certain (which truncates each step to 32
+/// significant bits and rounds its root to the last bit, so it lies
+/// within `√S·2^-29 + 1` of `√S`).
+#[inline(always)]
+fn surely_below_root(w: i64, sum: u128) -> bool {
+    let hi = w.max(0) as u128 + 2;
+    hi * hi <= sum - (sum >> 26)
+}
+
+/// `v > reach(t, a, d)`, decided from the squares where they are clear
+/// of the root's rounding, with the root only where they are not: the
+/// same answer, mostly without the square root. `(v − 2)² > S·(1 + 2^-26)`
+/// (so `v − 2 > √S·(1 + 2^-28)`) means `v` exceeds it
+/// (`S = t² + 2ad`), [`surely_below_root`] that it does not.
+#[inline]
+pub(crate) fn exceeds_reach(v: i64, t: i64, a: i64, d: i64) -> bool {
+    if v <= 0 {
+        return false;
+    }
+    let sum = reach_sum(t, a, d);
+    let lo = (v as u128).saturating_sub(2);
+    if lo * lo > sum.saturating_add(sum >> 26) {
+        return true;
+    }
+    if surely_below_root(v, sum) {
+        return false;
+    }
+    v > reach(t, a, d)
+}
+
+/// Whether `own < reach(t, a, d)` for certain, without the root.
+#[inline]
+pub(crate) fn surely_below_reach(own: i64, t: i64, a: i64, d: i64) -> bool {
+    surely_below_root(own, reach_sum(t, a, d))
 }
 
 #[cfg(test)]
@@ -118,5 +168,45 @@ mod tests {
             );
         }
         assert_eq!(reach(i64::MAX, i64::MAX, i64::MAX), i64::MAX);
+    }
+
+    #[test]
+    fn the_reach_comparisons_agree_with_the_root() {
+        // Pseudo-random speeds, accelerations and distances over the
+        // planner's range, and speeds on and next to each root.
+        let mut x = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        for _ in 0..200_000 {
+            let t = (next() >> (28 + next() % 36)) as i64;
+            let a = (next() >> (30 + next() % 34)) as i64;
+            let d = (next() >> (24 + next() % 40)) as i64;
+            let r = reach(t, a, d);
+            let off = (next() % 9) as i64 - 4;
+            for v in [
+                r + off,
+                (next() >> (28 + next() % 36)) as i64,
+                r >> 1,
+                0,
+                -3,
+            ] {
+                assert_eq!(exceeds_reach(v, t, a, d), v > r, "{v} {t} {a} {d}");
+            }
+            for own in [
+                r - 3,
+                r,
+                t - 3,
+                t - (t >> 20),
+                (next() >> (28 + next() % 36)) as i64,
+            ] {
+                if surely_below_reach(own, t, a, d) {
+                    assert!(own < r, "{own} {t} {a} {d}");
+                }
+            }
+        }
     }
 }
