@@ -724,6 +724,49 @@ fn sharp_corners_and_short_segments() {
 }
 
 #[test]
+fn a_short_segment_between_sharp_corners_runs_at_two_fifths_of_its_length_per_tick() {
+    // Zig-zags of 0.15 mm (shorter than the corner reach, 0.21 mm at
+    // 5000 mm/min and 1 kHz) turning by 120° at every point: the corners'
+    // own ceilings are far below the 0.06 mm/tick (3600 mm/min) that 2/5
+    // of a segment's length allows. Each segment's cap is at least that
+    // and at most what its ends allow when it is above it, and the motion
+    // keeps every limit.
+    let cfg = MotionConfig::default();
+    let len = 0.15;
+    let mut pts = vec![[0.0, 0.0, 0.0]];
+    for k in 0..200 {
+        let a: f64 = if k % 2 == 0 { 0.0 } else { 120f64.to_radians() };
+        let p = *pts.last().unwrap();
+        pts.push([p[0] + len * a.cos(), p[1] + len * a.sin(), 0.0]);
+    }
+    let points = constant(&pts, 5000);
+    let (planned, _) = whole_plan(&points, cfg);
+    let per_tick = |f: FeedMmPerMin| f.to_f64() / 60.0 * ts(&cfg);
+    let floor = 0.4 * len;
+    let mut checked = 0;
+    for w in planned
+        .windows(2)
+        .skip(1)
+        .take(planned.len().saturating_sub(3))
+    {
+        let (cap, ends) = (
+            per_tick(w[0].cap),
+            per_tick(w[0].ceiling).min(per_tick(w[1].ceiling)),
+        );
+        assert!(ends < floor, "the corners do not bind: {ends} mm/tick");
+        assert!(
+            cap >= floor * (1.0 - 1e-6) && cap <= floor * (1.0 + 1e-6),
+            "segment at {}: cap {cap} mm/tick, 2/5 of its length {floor}",
+            w[0].index
+        );
+        checked += 1;
+    }
+    assert!(checked > 150);
+    let f = run(&points, cfg);
+    assert_within_limits("zig-zag of 0.15 mm, 120° corners", &f, &cfg);
+}
+
+#[test]
 fn short_straight_segments_hold_the_programmed_feed() {
     // Grbl on an 8-bit MCU takes 26 % longer on 0.2 mm than on 0.3 mm
     // segments at 5000 mm/min; here 0.05 mm segments run at full feed with

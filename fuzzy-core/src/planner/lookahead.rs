@@ -843,14 +843,25 @@ impl Plan {
             return;
         };
         let mut c = ld(a.cap);
-        if b.s - a.s < self.lim.cap_reach {
+        let len = b.s - a.s;
+        if len < self.lim.cap_reach {
             // A short segment lies inside its end points' corner reach.
+            let mut ends = i64::MAX;
             if !self.is_path_start(i) {
-                c = c.min(ld(a.ceil));
+                ends = ends.min(ld(a.ceil));
             }
             if !(self.ended && i + 2 == self.nodes.storage_len()) {
-                c = c.min(ld(b.ceil));
+                ends = ends.min(ld(b.ceil));
             }
+            // Up to 2/5 of its length per tick a tick's stencil inside it
+            // (`±u`) never holds both its end points, so at every point of
+            // it the single nearer vertex counts, as on a long segment
+            // (module docs, "Ceilings"). Without smoothing only: the
+            // window's reach is longer.
+            if self.lim.smoothing == 1 {
+                ends = ends.max(len * 2 / 5);
+            }
+            c = c.min(ends);
         }
         if let Some(n) = self.nodes.get_mut(i) {
             n.cap = st(c.max(self.lim.creep));

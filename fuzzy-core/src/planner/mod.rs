@@ -77,7 +77,12 @@
 //!
 //! A segment shorter than the corner reach (2.5 ticks at the maximum feed,
 //! also how far ahead a point waits for its neighbours before its ceiling
-//! is final) inherits its end points' ceilings (they hold along it).
+//! is final) inherits its end points' ceilings (they hold along it), but
+//! never below 2/5 of its length per tick: up to that speed no stencil
+//! inside it holds both its end points, so each point of it sees the one
+//! nearer vertex and what lies beyond it, as on a segment longer than the
+//! reach (the same 2.5 ticks; without smoothing: the window's reach is
+//! longer).
 //! A full buffer whose unfinalized points all lie within the reach (very
 //! dense or repeated points) would wait forever: then, with the tool at
 //! rest on the end of what is planned, the next point is fixed anyway, its
