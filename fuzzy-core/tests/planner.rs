@@ -559,6 +559,16 @@ fn cycle_time_against_the_time_optimum_under_the_true_limits() {
         programmed(&gcode, 5000.0),
     ));
     paths.push(("freecad_profile, fuzzy".into(), scheduled(&freecad, 5000)));
+    let linuxcnc = csv("gcode/linuxcnc_butterfly_g52.csv");
+    let linuxcnc_xyz: Vec<[f64; 3]> = linuxcnc.iter().map(|p| p.0).collect();
+    paths.push((
+        "linuxcnc_butterfly_g52, programmed F".into(),
+        programmed(&linuxcnc, 5000.0),
+    ));
+    paths.push((
+        "linuxcnc_butterfly_g52, fuzzy".into(),
+        scheduled(&linuxcnc_xyz, 5000),
+    ));
     for (name, points) in &paths {
         let o = optimum(points, &cfg);
         let time = |cfg: MotionConfig| drive(points, cfg, |_, _| {}).len() as f64 * ts(&cfg);
