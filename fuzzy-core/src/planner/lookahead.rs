@@ -983,7 +983,7 @@ impl Plan {
 }
 
 /// `x·d >> 14` for `x, d >= 0`, exactly (`u128`; a 32-bit multiply where
-/// both fit, as at every speed below 0.5 mm per tick).
+/// both fit: every distance below 1 mm, so every corner reach below it).
 #[inline(always)]
 fn mul_q14(x: i64, d: i64) -> u128 {
     let (x, d) = (x.max(0) as u64, d.max(0) as u64);
