@@ -68,6 +68,8 @@ pub mod reference;
 mod ring;
 pub mod scheduler;
 mod segment;
+#[cfg(test)]
+mod test_rng;
 pub mod units;
 
 // The planner (`planner/q.rs`) names the soft float

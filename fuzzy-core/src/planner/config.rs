@@ -113,11 +113,16 @@ pub(crate) struct Limits {
     pub jerk: i64,
     /// Chord tolerance, mm.
     pub chord: i64,
+    /// A speed bound at or above this lies above `feed_max` by more than
+    /// a quotient's and the stored speeds' rounding: it cannot bind, and
+    /// `Lookahead::push` skips computing it (`feed_max·(1 + 1/512) + 64`
+    /// quanta).
+    pub unbinding: i64,
     /// The chord bound cannot lie below the feed bound (the stored ceilings
     /// included) where `κ·chord_free < 2δ`: `chord_free` is `H² + δ²` with
-    /// margins, `2H` above `feed_max` by more than the storage's rounding
-    /// (`Lookahead::push` then skips the bound's division and root);
-    /// `i64::MAX` where the margins would not hold.
+    /// margins, `2H` = [`Self::unbinding`] (`Lookahead::push` then skips
+    /// the bound's division and root); `i64::MAX` where the margins would
+    /// not hold.
     pub chord_free: i64,
     /// Reach of a point's corner limit (2.5 ticks at `feed_max`; with
     /// smoothing over `n` ticks, `(n + 1)` ticks at `feed_max` plus the
@@ -245,8 +250,9 @@ impl MotionConfig {
             return Err(ConfigError::Resolution);
         }
         let axis_accel = self.axis_accel_max_mm_s2.map(accel);
+        let unbinding = feed_max.saturating_add(feed_max / 512).saturating_add(64);
         let chord_free = {
-            let h = feed_max.saturating_add(feed_max / 512).saturating_add(64) / 2;
+            let h = unbinding / 2;
             let need = q::mul(h, h).saturating_add(q::mul(chord, chord));
             if need >= 1 << 24 {
                 need.saturating_add(need >> 20).saturating_add(1)
@@ -287,6 +293,7 @@ impl MotionConfig {
             envelope_decel: tangential - tangential / 20,
             jerk,
             chord,
+            unbinding,
             chord_free,
             reach,
             cap_reach,

@@ -174,13 +174,7 @@ mod tests {
     fn the_reach_comparisons_agree_with_the_root() {
         // Pseudo-random speeds, accelerations and distances over the
         // planner's range, and speeds on and next to each root.
-        let mut x = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = || {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            x
-        };
+        let mut next = crate::test_rng::xorshift64(0x9e37_79b9_7f4a_7c15);
         for _ in 0..200_000 {
             let t = (next() >> (28 + next() % 36)) as i64;
             let a = (next() >> (30 + next() % 34)) as i64;
