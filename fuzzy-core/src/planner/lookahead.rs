@@ -677,12 +677,17 @@ impl Plan {
 
     /// With the commanded positions averaged over `n > 1` ticks: the
     /// largest speed at node `i` (at most its ceiling so far and the feed
-    /// limit) that passes the window test, [`Self::window_slack`] `>= 0`.
-    /// The slack is piecewise linear and decreasing in the speed, so the
-    /// root is bracketed and found by regula falsi with the Illinois
-    /// halving (each step the secant of the bracket's ends, kept a
-    /// sixteenth of the bracket inside it; a few steps where bisection
-    /// needs a dozen). Only a speed the test passed is returned.
+    /// limit) that passes the window test ([`Self::window_probe`], slack
+    /// `>= 0`). The slack is the least of seven conditions, each piecewise
+    /// linear and decreasing in the speed, so the root is bracketed and
+    /// found by safeguarded Newton steps: each probe also gives every
+    /// condition's slope, and the next probe is where the linear pieces
+    /// through it reach zero (an eighth of the resolution below, so that it
+    /// passes), which is the root itself when no piece ends in between;
+    /// where that point lies outside the bracket, the secant of the
+    /// bracket's ends or its middle. The search ends when a passing probe's pieces reach zero
+    /// within the resolution (`top/4096`) or the bracket is that narrow.
+    /// Only a speed the test passed is returned (or 0).
     #[inline(never)]
     fn window_limit(&self, i: usize) -> i64 {
         let top = self
@@ -692,49 +697,56 @@ impl Plan {
             .min(self.lim.feed_max);
         // The outgoing direction does not depend on the speed: once.
         let out = self.out_dir(i);
-        let mut f_hi = self.window_slack(i, out, top);
-        if f_hi >= 0 {
+        let first = self.window_probe(i, out, top);
+        if first.slack >= 0 {
             return top;
         }
-        let mut f_lo = self.window_slack(i, out, 0);
-        if f_lo < 0 {
-            return 0;
-        }
-        let (mut lo, mut hi) = (0i64, top);
         let resolution = (top >> 12).max(1);
-        let mut last_side = 0i8;
+        let (mut lo, mut hi) = (0i64, top);
+        // The slack at `lo` (unknown until a probe passed: 0 is not
+        // probed, a speed of 0 is what the caller's floor replaces) and
+        // at `hi`.
+        let (mut f_lo, mut f_hi) = (None::<i64>, first.slack);
+        let mut next = first.zero.map(|x| x - resolution / 8);
         for _ in 0..WINDOW_STEPS {
             let span = hi - lo;
             if span <= resolution {
                 break;
             }
-            // f_lo >= 0 > f_hi: the secant's root, as a fraction of the span.
-            let t = div(f_lo, f_lo.saturating_sub(f_hi)).clamp(ONE / 16, ONE - ONE / 16);
-            let x = lo + mul(span, t).clamp(1, span - 1);
-            let f = self.window_slack(i, out, x);
-            if f >= 0 {
-                lo = x;
-                f_lo = f;
-                if last_side == 1 {
-                    f_hi /= 2; // Illinois: the end kept twice weighs less
+            let x = match (next, f_lo) {
+                (Some(x), _) if x > lo && x < hi => x,
+                // f_lo >= 0 > f_hi: the secant's root, a sixteenth of the
+                // span inside it.
+                (_, Some(fl)) => {
+                    let t = div(fl, fl.saturating_sub(f_hi)).clamp(ONE / 16, ONE - ONE / 16);
+                    lo + mul(span, t).clamp(1, span - 1)
                 }
-                last_side = 1;
+                (_, None) => lo + span / 2,
+            };
+            let p = self.window_probe(i, out, x);
+            if p.slack >= 0 {
+                lo = x;
+                f_lo = Some(p.slack);
+                match p.zero {
+                    Some(z) if z - x > resolution => next = Some(z - resolution / 8),
+                    Some(_) => break,
+                    None => next = None,
+                }
             } else {
                 hi = x;
-                f_hi = f;
-                if last_side == -1 {
-                    f_lo /= 2;
-                }
-                last_side = -1;
+                f_hi = p.slack;
+                next = p.zero.map(|z| z - resolution / 8);
             }
         }
         lo
     }
 
-    /// How far passing node `i` at speed `u` (travel per tick) keeps the
-    /// averaged positions within the per-axis acceleration and within the
-    /// chord tolerance of the polyline (`>= 0`: within; module docs of [`super`],
-    /// "Smoothing"). Within the window the speed is taken as at most
+    /// The window test of passing node `i` at speed `u` (travel per tick):
+    /// how far the averaged positions stay within the per-axis acceleration
+    /// and within the chord tolerance of the polyline (`slack >= 0`:
+    /// within; module docs of [`super`], "Smoothing"), and where the
+    /// conditions' linear pieces through `u` reach zero ([`Probe`]).
+    /// Within the window the speed is taken as at most
     /// `U = u + m` (the window margin). The average of `n` ticks' second
     /// differences weighs a vertex at distance `e` from the window's centre
     /// by a trapezoid (the mean of `n` hats `(U − |e − jU|)⁺`): `U/n` up to
@@ -757,10 +769,13 @@ impl Plan {
     /// others.
     /// `out` is [`Self::out_dir`] of the node.
     #[inline(never)]
-    fn window_slack(&self, i: usize, out: [i64; 3], u: i64) -> i64 {
+    fn window_probe(&self, i: usize, out: [i64; 3], u: i64) -> Probe {
         let lim = &self.lim;
         let Some(node) = self.nodes.get(i) else {
-            return -1;
+            return Probe {
+                slack: -1,
+                zero: None,
+            };
         };
         let n = i64::from(lim.smoothing);
         let ue = u.saturating_add(lim.window_margin);
@@ -770,37 +785,23 @@ impl Plan {
         // within the tick is neglected). The deviation's points lie within
         // `n − 1` steps of that one: `U_dev = u + (2n − 3)·ρA/2`.
         let u_dev = u.saturating_add((2 * n - 3) * lim.accel / 2);
-        // Per axis: the demand at the corner ahead and behind, and Σ|Δd|
-        // of the vertices counted; Σ‖Δd‖·weight for the deviation.
-        let (mut ahead, mut behind, mut sum) = ([0i64; 3], [0i64; 3], [0i64; 3]);
-        let mut dev: i64 = 0;
-        let mut count = |d: i64, turn: &[u16; 3], is_ahead: bool| {
-            let cap = if d == 0 { u } else { ue };
-            let same = far.saturating_sub(d).min(cap).max(0);
-            let other = cap.saturating_sub(d).max(0);
-            let (wa, wb) = if is_ahead {
-                (same, other)
-            } else {
-                (other, same)
+        if ue > WINDOW_SPEED_MAX || u_dev > WINDOW_SPEED_MAX {
+            // Beyond any configuration's feed: failed (the sums below
+            // would not be proven to fit).
+            return Probe {
+                slack: -1,
+                zero: None,
             };
-            for (((&t, ah), bh), sm) in turn
-                .iter()
-                .zip(ahead.iter_mut())
-                .zip(behind.iter_mut())
-                .zip(sum.iter_mut())
-            {
-                let t = i64::from(t);
-                *ah = ah.saturating_add((t * wa) >> 14);
-                *bh = bh.saturating_add((t * wb) >> 14);
-                *sm += t;
-            }
-            // `(n − 1)·(U_dev − 2δ/(n − 1))⁺`, without a division.
-            let wd = u_dev.saturating_mul(n - 1).saturating_sub(2 * d);
-            if wd > 0 {
-                dev = dev.saturating_add((l2_bound(turn) * wd) >> 14);
-            }
+        }
+        let mut acc = WindowSums::default();
+        let w = WindowWeights {
+            n,
+            u,
+            ue,
+            far,
+            u_dev,
         };
-        count(0, &node.turn, true);
+        acc.count(&w, 0, &node.turn, true);
         let mut k = i;
         while k > 0 {
             k -= 1;
@@ -809,7 +810,7 @@ impl Plan {
             if d > far {
                 break;
             }
-            count(d, &m.turn, false);
+            acc.count(&w, d, &m.turn, false);
         }
         let mut k = i + 1;
         while let Some(m) = self.nodes.get(k) {
@@ -817,23 +818,39 @@ impl Plan {
             if d > far {
                 break;
             }
-            count(d, &m.turn, true);
+            acc.count(&w, d, &m.turn, true);
             k += 1;
         }
+        let WindowSums {
+            ahead,
+            behind,
+            ahead_slope,
+            behind_slope,
+            sum,
+            dev,
+            dev_slope,
+        } = acc;
         // Each condition's budget less its demand (mm; the deviation's
-        // scaled by `2n(n − 1)`), the least of them.
-        let g = (n * n / 4) as i128;
-        let dev_slack = 2 * n as i128 * (n - 1) as i128 * lim.chord as i128 - dev as i128 * g;
+        // scaled by `2n(n − 1)`) and the demand's slope (Q14; the
+        // deviation's scaled alike).
+        let g = n * n / 4;
+        let dev_slack = (2 * n as i128 * (n - 1) as i128 * lim.chord as i128
+            - dev as i128 * g as i128)
+            .clamp(i64::MIN as i128, i64::MAX as i128) as i64;
         let share = corner_share(lim, out, sum);
-        ahead
-            .iter()
-            .zip(behind.iter())
-            .zip(share.iter())
-            .map(|((&ah, &bh), &c)| c.saturating_mul(n).saturating_sub(ah.max(bh)))
-            .fold(
-                dev_slack.clamp(i64::MIN as i128, i64::MAX as i128) as i64,
-                i64::min,
-            )
+        let mut conditions = [(dev_slack, dev_slope.saturating_mul(g * (n - 1))); 7];
+        for (a, pair) in conditions.chunks_exact_mut(2).enumerate().take(3) {
+            let budget = share[a].saturating_mul(n);
+            if let [on_ahead, on_behind] = pair {
+                *on_ahead = (budget.saturating_sub(ahead[a]), ahead_slope[a]);
+                *on_behind = (budget.saturating_sub(behind[a]), behind_slope[a]);
+            }
+        }
+        let slack = conditions.iter().map(|c| c.0).fold(i64::MAX, i64::min);
+        Probe {
+            slack,
+            zero: linear_zero(u, slack >= 0, &conditions),
+        }
     }
 
     /// The cap of the segment from node `i` to `i + 1` (both ceilings final).
@@ -1023,6 +1040,139 @@ fn axis_share(tangential: i64, axis: i64, fixed: i64, out: i64, sum: i64) -> i64
 /// Most steps of [`Lookahead::window_limit`]'s root search.
 const WINDOW_STEPS: usize = 10;
 
+/// The largest speed (travel per tick, raw Q32: 256 mm) for which
+/// [`Lookahead::window_probe`]'s sums are proven to fit 64 bits: a weight
+/// at most this, a direction change at most 2^15 (Q14), at most 2^16
+/// vertices.
+const WINDOW_SPEED_MAX: i64 = 1 << 40;
+
+/// The speeds [`Lookahead::window_probe`] weighs vertices with.
+struct WindowWeights {
+    /// Ticks averaged.
+    n: i64,
+    /// The step crossing the node.
+    u: i64,
+    /// The steps within the window, `u + m`.
+    ue: i64,
+    /// The window's reach, `n·ue`.
+    far: i64,
+    /// The deviation's point spacing.
+    u_dev: i64,
+}
+
+/// What [`Lookahead::window_probe`] sums over the vertices in the window
+/// (per axis in arrays: a struct per axis compiles to a longer loop on
+/// the Cortex-M4).
+#[derive(Default)]
+struct WindowSums {
+    /// Per axis: the demand at the corner ahead and behind (mm), and its
+    /// slope in `u` (Q14).
+    ahead: [i64; 3],
+    behind: [i64; 3],
+    ahead_slope: [i64; 3],
+    behind_slope: [i64; 3],
+    /// Per axis: Σ|Δd| of the vertices counted (Q14).
+    sum: [i64; 3],
+    /// Σ‖Δd‖·weight for the deviation, and its slope (Σ‖Δd‖ of the
+    /// vertices it weighs).
+    dev: i64,
+    dev_slope: i64,
+}
+
+impl WindowSums {
+    /// Count the vertex `d` from the node (ahead or behind it) with
+    /// direction change `turn`. Every weight is at most
+    /// [`WINDOW_SPEED_MAX`] (checked by the caller), so no sum overflows.
+    #[inline(always)]
+    #[allow(clippy::needless_range_loop)] // five arrays, one index
+    fn count(&mut self, w: &WindowWeights, d: i64, turn: &[u16; 3], is_ahead: bool) {
+        let cap = if d == 0 { w.u } else { w.ue };
+        // Each weight and its slope in `u` (the cap's is 1, the far
+        // corner's `n`).
+        let to_far = w.far - d;
+        let same = if to_far <= 0 {
+            (0, 0)
+        } else if to_far < cap {
+            (to_far, w.n)
+        } else {
+            (cap, 1)
+        };
+        let other = if cap > d { (cap - d, 1) } else { (0, 0) };
+        let ((wa, ka), (wb, kb)) = if is_ahead {
+            (same, other)
+        } else {
+            (other, same)
+        };
+        for a in 0..3 {
+            let t = i64::from(turn[a]);
+            self.ahead[a] += (t * wa) >> 14;
+            self.behind[a] += (t * wb) >> 14;
+            self.ahead_slope[a] += t * ka;
+            self.behind_slope[a] += t * kb;
+            self.sum[a] += t;
+        }
+        // `(n − 1)·(U_dev − 2δ/(n − 1))⁺`, without a division.
+        let wd = w.u_dev * (w.n - 1) - 2 * d;
+        if wd > 0 {
+            let l2 = l2_bound(turn);
+            self.dev += (l2 * wd) >> 14;
+            self.dev_slope += l2;
+        }
+    }
+}
+
+/// The window test at one speed ([`Lookahead::window_probe`]).
+struct Probe {
+    /// The least condition's budget less its demand (`>= 0`: passed).
+    slack: i64,
+    /// Where the conditions' linear pieces through this speed reach zero:
+    /// when it failed, the largest speed at which every failing one
+    /// passes; when it passed, the least speed above it at which one fails
+    /// (`None`: a failing condition does not change with the speed here,
+    /// or no condition grows with it).
+    zero: Option<i64>,
+}
+
+/// [`Probe::zero`] of conditions `(slack, slope)` at speed `u` (slope:
+/// the demand's growth per speed, Q14, `>= 0`). Failed: the failing
+/// condition farthest from zero in speed, `u − ⌈|slack|/slope⌉ − 1`;
+/// passed: the nearest, `u + ⌊slack/slope⌋`. The ratios are compared
+/// exactly (`i128` products), one quotient taken.
+fn linear_zero(u: i64, passed: bool, conditions: &[(i64, i64); 7]) -> Option<i64> {
+    // The winning (distance, slope): distance `|slack|`, compared as
+    // `d₁/s₁ > d₂/s₂` ⇔ `d₁·s₂ > d₂·s₁`.
+    let mut best: Option<(i64, i64)> = None;
+    for &(slack, slope) in conditions {
+        if passed {
+            if slope <= 0 {
+                continue;
+            }
+            let b = (slack.max(0), slope);
+            best = match best {
+                Some(c) if (c.0 as i128 * b.1 as i128) <= (b.0 as i128 * c.1 as i128) => Some(c),
+                _ => Some(b),
+            };
+        } else if slack < 0 {
+            if slope <= 0 {
+                return None;
+            }
+            let b = (slack.saturating_neg(), slope);
+            best = match best {
+                Some(c) if (c.0 as i128 * b.1 as i128) >= (b.0 as i128 * c.1 as i128) => Some(c),
+                _ => Some(b),
+            };
+        }
+    }
+    let (dist, slope) = best?;
+    // `dist·2^14/slope`: `div` is Q32, the slope Q14.
+    let du = div(dist, slope) >> 18;
+    Some(if passed {
+        u.saturating_add(du)
+    } else {
+        u.saturating_sub(du.saturating_add(1))
+    })
+}
+
 /// An upper bound of the Euclidean length of a direction change (Q14):
 /// its largest component plus half the other two (`a >= b, c` gives
 /// `(a + (b + c)/2)² >= a² + b² + c²`).
@@ -1118,5 +1268,105 @@ mod tests {
             }
         }
         assert!(skipped.iter().all(|&n| n > 1000), "{skipped:?}");
+    }
+
+    /// The largest speed passing the window test, by bisection to the
+    /// quantum (the slack is decreasing in the speed): the reference for
+    /// [`Lookahead::window_limit`]'s root search.
+    fn window_root_bisected(plan: &Plan, i: usize) -> i64 {
+        let top = plan
+            .nodes
+            .get(i)
+            .map_or(0, |n| ld(n.ceil))
+            .min(plan.lim.feed_max);
+        let out = plan.out_dir(i);
+        let passes = |u: i64| plan.window_probe(i, out, u).slack >= 0;
+        if passes(top) {
+            return top;
+        }
+        let (mut lo, mut hi) = (0i64, top);
+        while hi - lo > 1 {
+            let x = lo + (hi - lo) / 2;
+            if passes(x) {
+                lo = x;
+            } else {
+                hi = x;
+            }
+        }
+        lo
+    }
+
+    #[test]
+    fn the_window_root_search_passes_and_finds_the_root() {
+        // Random polylines (segments 2 µm to 2 mm, sharp and gentle turns,
+        // dense runs) under random smoothing configurations; every node's
+        // ceiling candidate against the bisected root.
+        let mut next = crate::test_rng::xorshift64(0x9e37_79b9_7f4a_7c15);
+        let (mut nodes, mut close, mut worst) = (0u32, 0u32, 0f64);
+        for case in 0..300 {
+            let cfg = crate::planner::MotionConfig {
+                tick_us: [250, 500, 1000][(next() % 3) as usize],
+                feed_max: FeedMmPerMin::from_int(500 + (next() % 10_000) as i32),
+                axis_accel_max_mm_s2: [0; 3].map(|_| 200 + (next() % 3000) as u32),
+                chord_tolerance_mm: fixed::types::I32F32::from_bits(
+                    (1 << 22) + (next() % (1 << 26)) as i64,
+                ),
+                smoothing_ticks: 2 + (next() % 3) as u8,
+                ..Default::default()
+            };
+            let Ok(lim) = cfg.compile() else { continue };
+            let mut buf: Buffer<64> = Buffer::new(lim);
+            let mut pos = [0i64; 3];
+            let mut dir = [1.0f64, 0.0, 0.0];
+            let dense = case % 3 == 0;
+            for _ in 0..60 {
+                let len_mm = if dense {
+                    0.002 + (next() % 1000) as f64 * 2e-5
+                } else {
+                    0.002 * (1000f64).powf((next() % 1000) as f64 / 1000.0)
+                };
+                let turn = if dense { 0.05 } else { 2.5 };
+                for d in dir.iter_mut() {
+                    *d += ((next() % 2001) as f64 / 1000.0 - 1.0) * turn;
+                }
+                let norm = dir.iter().map(|d| d * d).sum::<f64>().sqrt().max(1e-9);
+                for (p, d) in pos.iter_mut().zip(dir.iter()) {
+                    *p += (d / norm * len_mm * 4_294_967_296.0) as i64;
+                }
+                let point = MotionPoint {
+                    pos: Point3Mm::from_bits(pos[0], pos[1], pos[2]),
+                    feed: FeedMmPerMin::from_int(60_000),
+                    curvature: CurvaturePerMm::default(),
+                };
+                if buf.plan_mut().push(point).is_err() {
+                    break;
+                }
+            }
+            let plan = buf.plan();
+            for i in 1..plan.len().saturating_sub(1) {
+                let r = plan.window_limit(i);
+                let reference = window_root_bisected(plan, i);
+                let out = plan.out_dir(i);
+                assert!(
+                    r == 0 || plan.window_probe(i, out, r).slack >= 0,
+                    "{cfg:?} node {i}: {r} fails the test"
+                );
+                assert!(
+                    r <= reference,
+                    "{cfg:?} node {i}: {r} above the root {reference}"
+                );
+                nodes += 1;
+                let short = (reference - r) as f64 / reference.max(1) as f64;
+                worst = worst.max(short);
+                if short <= 1.0 / 1024.0 {
+                    close += 1;
+                }
+            }
+        }
+        std::eprintln!(
+            "window root: {close} of {nodes} within 1/1024 of the root, worst {worst:.4}"
+        );
+        assert!(nodes > 5000, "{nodes}");
+        assert!(close as f64 >= 0.99 * nodes as f64, "{close} of {nodes}");
     }
 }

@@ -105,11 +105,12 @@
 //! amount. The output's second and third differences are means of the
 //! executor's, so every bound of the executor's positions still holds; the
 //! direction-change ceiling is replaced by the window test of
-//! `Lookahead::window_slack` (per axis: the mean of `n` ticks' hats is a
+//! `Lookahead::window_probe` (per axis: the mean of `n` ticks' hats is a
 //! trapezoid, checked at its corners `s_i ± (n − 1)·U/2`; and the blend's
 //! deviation from the polyline `g_n·Σ‖Δd_k‖·(U − 2δ_k/(n − 1))⁺ <= δ`, the
 //! chord tolerance, `g_n = ⌊n²/4⌋/(2n)`), solved for the speed by
-//! regula falsi. A vertex weighs the step that crosses it (the sum of its hats
+//! safeguarded Newton steps on its piecewise-linear conditions
+//! (`Lookahead::window_limit`). A vertex weighs the step that crosses it (the sum of its hats
 //! over the ticks is that step): the node's own taken as `u` (the change
 //! of speed within a tick neglected, as in the single-tick corner limit),
 //! its neighbours' within the window (`n + 1` steps) at most
