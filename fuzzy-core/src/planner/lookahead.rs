@@ -677,17 +677,21 @@ impl Plan {
 
     /// With the commanded positions averaged over `n > 1` ticks: the
     /// largest speed at node `i` (at most its ceiling so far and the feed
-    /// limit) that passes the window test ([`Self::window_probe`], slack
-    /// `>= 0`). The slack is the least of seven conditions, each piecewise
-    /// linear and decreasing in the speed, so the root is bracketed and
-    /// found by safeguarded Newton steps: each probe also gives every
-    /// condition's slope, and the next probe is where the linear pieces
-    /// through it reach zero (an eighth of the resolution below, so that it
-    /// passes), which is the root itself when no piece ends in between;
-    /// where that point lies outside the bracket, the secant of the
-    /// bracket's ends or its middle. The search ends when a passing probe's pieces reach zero
-    /// within the resolution (`top/4096`) or the bracket is that narrow.
-    /// Only a speed the test passed is returned (or 0).
+    /// limit, the top) that passes the window test
+    /// ([`Self::window_probe`], slack `>= 0`). The slack is the least of
+    /// seven conditions, each piecewise linear and decreasing in the speed,
+    /// so the root is bracketed and found by safeguarded Newton steps: each
+    /// probe also gives every condition's slope, and the next probe is
+    /// where the linear pieces through it reach zero (an eighth of the
+    /// resolution below, so that it passes), which is the root itself when
+    /// no piece ends in between; where that point lies outside the
+    /// bracket, the secant of the bracket's ends or its middle. The first
+    /// probe is an eighth above the previous node's final ceiling where
+    /// that lies below the top (on a curve the neighbours' limits are
+    /// close: the probe's window is shorter than the top's), else the top.
+    /// The search ends when a passing probe's pieces reach zero within the
+    /// resolution (`top/4096`) or the bracket is that narrow. Only a speed
+    /// the test passed is returned (or 0).
     #[inline(never)]
     fn window_limit(&self, i: usize) -> i64 {
         let top = self
@@ -697,44 +701,54 @@ impl Plan {
             .min(self.lim.feed_max);
         // The outgoing direction does not depend on the speed: once.
         let out = self.out_dir(i);
-        let first = self.window_probe(i, out, top);
-        if first.slack >= 0 {
-            return top;
-        }
         let resolution = (top >> 12).max(1);
+        let start = i
+            .checked_sub(1)
+            .filter(|&k| !self.is_path_start(k))
+            .and_then(|k| self.nodes.get(k))
+            .map(|m| {
+                let c = ld(m.ceil);
+                c.saturating_add(c / 8).saturating_add(resolution)
+            })
+            .filter(|&g| g < top)
+            .unwrap_or(top);
         let (mut lo, mut hi) = (0i64, top);
         // The slack at `lo` (unknown until a probe passed: 0 is not
         // probed, a speed of 0 is what the caller's floor replaces) and
-        // at `hi`.
-        let (mut f_lo, mut f_hi) = (None::<i64>, first.slack);
-        let mut next = first.zero.map(|x| x - resolution / 8);
-        for _ in 0..WINDOW_STEPS {
+        // at `hi` (unknown until the top was probed).
+        let (mut f_lo, mut f_hi) = (None::<i64>, None::<i64>);
+        let mut next = Some(start);
+        for _ in 0..=WINDOW_STEPS {
             let span = hi - lo;
             if span <= resolution {
                 break;
             }
-            let x = match (next, f_lo) {
-                (Some(x), _) if x > lo && x < hi => x,
+            let x = match (next, f_lo, f_hi) {
+                (Some(x), _, _) if x > lo && (x < hi || (x == hi && f_hi.is_none())) => x,
+                (_, _, None) => hi,
                 // f_lo >= 0 > f_hi: the secant's root, a sixteenth of the
                 // span inside it.
-                (_, Some(fl)) => {
-                    let t = div(fl, fl.saturating_sub(f_hi)).clamp(ONE / 16, ONE - ONE / 16);
+                (_, Some(fl), Some(fh)) => {
+                    let t = div(fl, fl.saturating_sub(fh)).clamp(ONE / 16, ONE - ONE / 16);
                     lo + mul(span, t).clamp(1, span - 1)
                 }
-                (_, None) => lo + span / 2,
+                (_, None, Some(_)) => lo + span / 2,
             };
             let p = self.window_probe(i, out, x);
             if p.slack >= 0 {
+                if x >= top {
+                    return top;
+                }
                 lo = x;
                 f_lo = Some(p.slack);
-                match p.zero {
-                    Some(z) if z - x > resolution => next = Some(z - resolution / 8),
+                next = match p.zero {
+                    Some(z) if z - x > resolution => Some((z - resolution / 8).min(top)),
                     Some(_) => break,
-                    None => next = None,
-                }
+                    None => None,
+                };
             } else {
                 hi = x;
-                f_hi = p.slack;
+                f_hi = Some(p.slack);
                 next = p.zero.map(|z| z - resolution / 8);
             }
         }
