@@ -3,7 +3,7 @@
 //! so each input stays fast).
 #![no_main]
 
-use host_sim::gcode::{self, GcodeSettings, Limits};
+use gcode_interp::{self as gcode, GcodeSettings, Limits};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

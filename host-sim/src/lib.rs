@@ -20,17 +20,16 @@ pub mod cli;
 pub mod config;
 pub mod contour_error;
 pub mod experiments;
-pub mod gcode;
-pub mod inputs;
 pub mod interpolation;
 pub mod machine;
 pub mod methods;
 pub mod metrics;
-pub mod nurbs;
 pub mod output;
-pub mod path_csv;
 pub mod planner;
 pub mod plots;
-pub mod shapes;
 pub mod simulate;
-pub mod toolpath;
+
+// The programs the simulator reads are the product's: G-code, CSV and the
+// papers' shapes come from the interpreter's crate.
+pub use gcode_interp as gcode;
+pub use gcode_interp::{inputs, nurbs, path_csv, shapes, toolpath};

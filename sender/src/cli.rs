@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use clap::{Args, Parser, Subcommand};
-use host_sim::config::SimConfig;
+use gcode_interp::GcodeSettings;
 use link::Status;
 
 use crate::actions::Script;
@@ -226,8 +226,9 @@ pub struct SendArgs {
     /// for bit; costs about 23 bytes a point of the link's return channel.
     #[arg(long)]
     pub verify: bool,
-    /// host-sim configuration (TOML) whose `[gcode]` settings read the
-    /// file (chord tolerance of arcs, rapid feed).
+    /// A TOML file whose `[gcode]` table sets how the file is read (chord
+    /// tolerance of arcs, rapid feed, offsets, tools; host-sim's
+    /// configuration files have the same table; other tables are ignored).
     #[arg(long, value_name = "TOML")]
     pub config: Option<PathBuf>,
     /// Status lines instead of a progress bar, even on a terminal.
@@ -698,13 +699,14 @@ pub fn summary_text(o: &Outcome) -> Vec<String> {
 
 fn send(a: SendArgs, target: &Target, link_timeout: Duration) -> Result<Exit, Failure> {
     // Everything that can be refused is checked before connecting.
-    let sim_config = match &a.config {
-        Some(p) => SimConfig::read(p).map_err(|e| Failure::new(Exit::Input, format!("{e:#}")))?,
-        None => SimConfig::default(),
+    let settings = match &a.config {
+        Some(p) => GcodeSettings::read_config_file(p)
+            .map_err(|e| Failure::new(Exit::Input, format!("{e:#}")))?,
+        None => GcodeSettings::default(),
     };
     let script = a.script.as_ref().map(read_script).transpose()?;
-    let program = program::load(&a.file, &sim_config)
-        .map_err(|e| Failure::new(Exit::Input, e.to_string()))?;
+    let program =
+        program::load(&a.file, &settings).map_err(|e| Failure::new(Exit::Input, e.to_string()))?;
     let run = RunArgs {
         f_max: a.f_max,
         f_min: a.f_min,
@@ -719,11 +721,11 @@ fn send(a: SendArgs, target: &Target, link_timeout: Duration) -> Result<Exit, Fa
     run_program(run, target, link_timeout, move |here| {
         // A G-code program starts where the tool is.
         if matches!(program.source, program::Source::File(_))
-            && here != sim_config.gcode.start_mm
+            && here != settings.start_mm
             && !file.to_ascii_lowercase().ends_with(".csv")
         {
-            let mut c = sim_config.clone();
-            c.gcode.start_mm = here;
+            let mut c = settings.clone();
+            c.start_mm = here;
             return program::load(&file, &c).map_err(|e| Failure::new(Exit::Input, e.to_string()));
         }
         Ok(program)
@@ -745,7 +747,7 @@ fn jog(a: JogArgs, target: &Target, link_timeout: Duration) -> Result<Exit, Fail
         log: a.log,
     };
     run_program(run, target, link_timeout, move |here| {
-        program::jog(&j, here, &SimConfig::default())
+        program::jog(&j, here, &GcodeSettings::default())
             .map_err(|e| Failure::new(Exit::Input, e.to_string()))
     })
 }

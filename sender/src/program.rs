@@ -14,9 +14,9 @@ use controller::feeder::Feeder;
 use controller::settings::FEED_MAX_MM_PER_MIN;
 use fuzzy_core::scheduler::{PathPoint, ScheduledPoint, SchedulerConfig};
 use fuzzy_core::units::{FeedMmPerMin, Point3Mm};
-use host_sim::config::SimConfig;
-use host_sim::shapes::Shape;
-use host_sim::toolpath::MachineEvent;
+use gcode_interp::shapes::Shape;
+use gcode_interp::toolpath::MachineEvent;
+use gcode_interp::GcodeSettings;
 use link::batch::to_grid;
 use link::{MachineCmd, SpindleDir};
 
@@ -25,7 +25,7 @@ use link::{MachineCmd, SpindleDir};
 pub enum Source {
     /// A file (G-code or CSV, by extension).
     File(PathBuf),
-    /// A built-in shape (`host_sim::shapes`).
+    /// A built-in shape (`gcode_interp::shapes`).
     Shape(Shape),
     /// A jog move ([`Jog`]).
     Jog,
@@ -96,9 +96,9 @@ pub fn machine_cmd(e: &MachineEvent) -> Option<MachineCmd> {
     Some(match *e {
         MachineEvent::Spindle { dir, rpm } => {
             let dir = match dir {
-                host_sim::toolpath::SpindleDir::Off => SpindleDir::Off,
-                host_sim::toolpath::SpindleDir::Cw => SpindleDir::Cw,
-                host_sim::toolpath::SpindleDir::Ccw => SpindleDir::Ccw,
+                gcode_interp::toolpath::SpindleDir::Off => SpindleDir::Off,
+                gcode_interp::toolpath::SpindleDir::Cw => SpindleDir::Cw,
+                gcode_interp::toolpath::SpindleDir::Ccw => SpindleDir::Ccw,
             };
             if !(rpm.is_finite() && (0.0..=u32::MAX as f64).contains(&rpm)) {
                 return None;
@@ -229,12 +229,12 @@ pub fn on_grid(p: PathPoint) -> PathPoint {
 }
 
 /// Load `spec`: an existing file (G-code `.nc .ngc .gcode .tap .cnc .g` or
-/// `.csv`, through `host_sim::inputs::load` with the configuration's
-/// `[gcode]` settings), else a shape name.
-pub fn load(spec: &str, config: &SimConfig) -> Result<Program, InputError> {
+/// `.csv`, through `gcode_interp::inputs::load` with the `[gcode]`
+/// settings), else a shape name.
+pub fn load(spec: &str, settings: &GcodeSettings) -> Result<Program, InputError> {
     let path = Path::new(spec);
     let (t, source) = if path.exists() {
-        let t = host_sim::inputs::load(path, &config.gcode)
+        let t = gcode_interp::inputs::load(path, settings)
             .map_err(|e| InputError::from_reader(spec, &e))?;
         (t, Source::File(path.to_path_buf()))
     } else {
@@ -259,7 +259,7 @@ pub fn load(spec: &str, config: &SimConfig) -> Result<Program, InputError> {
 
 /// A program from a toolpath read from `spec`.
 fn from_toolpath(
-    t: host_sim::toolpath::Toolpath,
+    t: gcode_interp::toolpath::Toolpath,
     source: Source,
     spec: &str,
 ) -> Result<Program, InputError> {
@@ -376,7 +376,7 @@ impl Jog {
 /// `G21|G20 G91|G90 G1 X… F…` (the values as given), read with the tool at
 /// `here` by the same reader as a file, so that the axes not named stay
 /// exactly where they are.
-pub fn jog(j: &Jog, here: [f64; 3], config: &SimConfig) -> Result<Program, InputError> {
+pub fn jog(j: &Jog, here: [f64; 3], settings: &GcodeSettings) -> Result<Program, InputError> {
     let err = |message: String| InputError {
         file: "jog".into(),
         line: None,
@@ -396,10 +396,10 @@ pub fn jog(j: &Jog, here: [f64; 3], config: &SimConfig) -> Result<Program, Input
         }
     }
     block.push_str(&format!(" F{}\n", j.feed));
-    let mut c = config.gcode.clone();
+    let mut c = settings.clone();
     c.start_mm = here;
-    let t = host_sim::gcode::parse("jog", &block, &c)
-        .map_err(|e| InputError::from_reader("jog", &e))?;
+    let t =
+        gcode_interp::parse("jog", &block, &c).map_err(|e| InputError::from_reader("jog", &e))?;
     let p = from_toolpath(t, Source::Jog, "jog")?;
     if p.len() < 2 {
         return Err(err("the jog is shorter than the link's grid".into()));
@@ -710,7 +710,7 @@ mod tests {
             assert!(Jog::parse(bad).is_err(), "{bad:?}");
         }
         let here = [3.0, -4.0, 0.5];
-        let p = jog(&j, here, &SimConfig::default()).unwrap();
+        let p = jog(&j, here, &GcodeSettings::default()).unwrap();
         assert_eq!(p.source, Source::Jog);
         assert_eq!(p.points.len(), 2);
         let start = p.points[0].pos.to_f64();
@@ -725,7 +725,7 @@ mod tests {
         );
         assert!((p.length_mm() - (1.5f64.powi(2) + 4.0).sqrt()).abs() < 1e-6);
         let no_move = Jog::parse(&["G90", "X3", "F100"]).unwrap();
-        assert!(jog(&no_move, here, &SimConfig::default()).is_err());
+        assert!(jog(&no_move, here, &GcodeSettings::default()).is_err());
     }
 
     fn repo(rel: &str) -> String {
@@ -739,7 +739,7 @@ mod tests {
         let f = dir.join("bad.ngc");
         std::fs::write(&f, "G21 G90\nG1 X1 F100\nG999 X2\n").unwrap();
         let spec = f.to_string_lossy().into_owned();
-        let e = load(&spec, &SimConfig::default()).unwrap_err();
+        let e = load(&spec, &GcodeSettings::default()).unwrap_err();
         assert_eq!(e.file, spec);
         assert_eq!(e.line, Some(3), "{e}");
         assert!(!e.message.starts_with("line"), "{e}");
@@ -752,7 +752,7 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let f = dir.join("slow.ngc");
         std::fs::write(&f, "G21 G90\nG1 X1 F100\nG1 X2 F0.5\n").unwrap();
-        let e = load(&f.to_string_lossy(), &SimConfig::default()).unwrap_err();
+        let e = load(&f.to_string_lossy(), &GcodeSettings::default()).unwrap_err();
         assert_eq!(e.line, Some(3), "{e}");
         assert!(e.message.contains("minimum"), "{e}");
     }
@@ -770,7 +770,7 @@ mod tests {
 
     #[test]
     fn files_and_shapes_load_and_unknown_names_are_refused() {
-        let g = SimConfig::default();
+        let g = GcodeSettings::default();
         let p = load(&repo("tests/data/short_segments.ngc"), &g).unwrap();
         assert!(p.len() > 4000);
         assert_eq!(p.points[0].pos.to_bits(), [0; 3], "starts at the origin");
@@ -792,7 +792,7 @@ mod tests {
 
     #[test]
     fn host_feeds_cover_every_point_and_time_adds_up() {
-        let p = load("trident", &SimConfig::default()).unwrap();
+        let p = load("trident", &GcodeSettings::default()).unwrap();
         let cfg = scheduler_config(3000.0, 60.0).unwrap();
         let sched = p.host_schedule(cfg);
         assert!(sched.iter().all(|f| f.is_some()));
@@ -811,7 +811,7 @@ mod tests {
         let f = dir.join("dwell.ngc");
         // 1 mm at F60: 1 s a block; a 2.5 s dwell after the first block.
         std::fs::write(&f, "G21 G90\nG1 X1 F60\nG4 P2.5\nG1 X2\nG1 X3\n").unwrap();
-        let p = load(&f.to_string_lossy(), &SimConfig::default()).unwrap();
+        let p = load(&f.to_string_lossy(), &GcodeSettings::default()).unwrap();
         std::fs::remove_dir_all(&dir).ok();
         let feeds = vec![Some(60i64 << 32); p.len()];
         let t = p.cum_time_s(&feeds, 5000.0);
@@ -834,7 +834,7 @@ mod tests {
             "G21 G90\nM3 S1000.4\nM8\nG1 X1 F100\nG1 X1\nS2000\nG1 X2\nM9 M5\n",
         )
         .unwrap();
-        let p = load(&f.to_string_lossy(), &SimConfig::default()).unwrap();
+        let p = load(&f.to_string_lossy(), &GcodeSettings::default()).unwrap();
         assert_eq!(p.len(), 3);
         let texts: Vec<(usize, u32, String)> = p
             .events

@@ -1212,10 +1212,10 @@ impl<'a> Run<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use host_sim::config::SimConfig;
+    use gcode_interp::GcodeSettings;
 
     fn program() -> Program {
-        crate::program::load("trident", &SimConfig::default()).unwrap()
+        crate::program::load("trident", &GcodeSettings::default()).unwrap()
     }
 
     fn handshake(status: Status) -> Handshake {

@@ -15,7 +15,7 @@ use std::time::{Duration, Instant};
 
 use controller::config::Config;
 use controller::store::{self, MemFlash};
-use host_sim::config::SimConfig;
+use gcode_interp::GcodeSettings;
 use link::{AlarmCode, DeviceMsg, HostMsg, Motion, PlanEvent, Status};
 use sender::actions::{Action, Script};
 use sender::exit::Exit;
@@ -32,7 +32,7 @@ fn repo(rel: &str) -> String {
 }
 
 fn load(spec: &str) -> Program {
-    program::load(spec, &SimConfig::default()).unwrap()
+    program::load(spec, &GcodeSettings::default()).unwrap()
 }
 
 fn opts() -> Options {
@@ -273,7 +273,7 @@ fn jogs_start_where_the_tool_is_and_soft_limits_refuse_one_out_of_travel() {
         let hs = s.handshake(&o).unwrap();
         let here = hs.status.pos_mm.map(bits_f64);
         let j = Jog::parse(words).unwrap();
-        let p = program::jog(&j, here, &SimConfig::default()).unwrap();
+        let p = program::jog(&j, here, &GcodeSettings::default()).unwrap();
         assert_eq!(p.points.len(), 2, "{words:?}: one straight move");
         let target = j.target_mm(here);
         (s.run(&p, &hs, &o, actions, &mut Quiet), p, target)

@@ -257,7 +257,7 @@ fn func_name(f: Func) -> &'static str {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gcode::parse::{line, Stmt};
+    use crate::parse::{line, Stmt};
 
     struct P;
     impl Params for P {

@@ -5,9 +5,9 @@ use std::path::Path;
 
 use anyhow::{bail, Result};
 
-use crate::gcode::{self, GcodeSettings};
 use crate::path_csv;
 use crate::toolpath::Toolpath;
+use crate::GcodeSettings;
 
 /// Load a toolpath; the extension picks the reader.
 pub fn load(path: &Path, settings: &GcodeSettings) -> Result<Toolpath> {
@@ -24,7 +24,7 @@ pub fn load(path: &Path, settings: &GcodeSettings) -> Result<Toolpath> {
             Toolpath::from_path_points(name, &pts)
                 .map_err(|e| anyhow::anyhow!("in {}: {e:#}", path.display()))
         }
-        "nc" | "ngc" | "gcode" | "tap" | "cnc" | "g" => gcode::read(path, settings),
+        "nc" | "ngc" | "gcode" | "tap" | "cnc" | "g" => crate::read(path, settings),
         _ => bail!(
             "{}: unknown toolpath kind (use .csv or a G-code extension: .nc .ngc .gcode .tap .cnc .g)",
             path.display()

@@ -242,7 +242,7 @@ fn program_pos(it: &Interp, k: usize) -> f64 {
 
 #[cfg(test)]
 mod tests {
-    use crate::gcode::{parse, GcodeSettings};
+    use crate::{parse, GcodeSettings};
 
     fn holes(src: &str) -> Vec<[f64; 3]> {
         let t = parse("t", src, &GcodeSettings::default()).unwrap();

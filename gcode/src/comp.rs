@@ -435,7 +435,7 @@ fn circle_circle(c1: [f64; 2], r1: f64, c2: [f64; 2], r2: f64) -> Vec<[f64; 2]> 
 
 #[cfg(test)]
 mod tests {
-    use crate::gcode::{parse, GcodeSettings, ToolEntry};
+    use crate::{parse, GcodeSettings, ToolEntry};
 
     fn settings(d: f64) -> GcodeSettings {
         GcodeSettings {

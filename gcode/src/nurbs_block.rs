@@ -297,7 +297,7 @@ fn refine(
     let um = 0.5 * (u0 + u1);
     let pm = f(um);
     // Distance of the midpoint from the chord p0-p1.
-    let d = crate::contour_error::brute_force_distance(&[p0, p1], pm);
+    let d = crate::toolpath::segment_distance(p0, p1, pm);
     if d > tol && depth < 30 {
         refine(f, (u0, p0), (um, pm), tol, depth + 1, room, out)?;
         refine(f, (um, pm), (u1, p1), tol, depth + 1, room, out)

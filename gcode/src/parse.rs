@@ -9,7 +9,7 @@
 //! parameter (`#5`, `##1`, `#[…]`, `#<name>`), a unary function of a bracketed
 //! expression (`sin[30]`, `atan[y]/[x]`, `exists[#<name>]`), or a signed real
 //! value. Expressions combine real values with binary operators at five
-//! precedence levels ([`crate::gcode::expr`]). Numbers have no exponent (in
+//! precedence levels ([`crate::expr`]). Numbers have no exponent (in
 //! rs274ngc `E` is a word letter), so `1e3` is the number 1 then an `E` word.
 //!
 //! Why not a lexing crate: the `gcode` crate (and the others on crates.io at

@@ -40,11 +40,16 @@ pub mod arc;
 pub mod comp;
 pub mod cycles;
 pub mod expr;
+pub mod inputs;
 pub mod interp;
+pub mod nurbs;
 pub mod nurbs_block;
 pub mod parse;
+pub mod path_csv;
 pub mod program;
+pub mod shapes;
 pub mod sink;
+pub mod toolpath;
 
 use std::path::{Path, PathBuf};
 
@@ -104,6 +109,27 @@ impl Default for GcodeSettings {
 }
 
 impl GcodeSettings {
+    /// The `[gcode]` table of a TOML configuration file (host-sim's
+    /// configuration has one; the file's other tables are not read here),
+    /// checked; the defaults where the file has no such table.
+    pub fn read_config_file(path: &Path) -> Result<Self> {
+        let text =
+            std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+        Self::from_config_text(&text).with_context(|| format!("in {}", path.display()))
+    }
+
+    /// [`GcodeSettings::read_config_file`] of TOML text.
+    pub fn from_config_text(text: &str) -> Result<Self> {
+        #[derive(Deserialize)]
+        struct File {
+            #[serde(default)]
+            gcode: GcodeSettings,
+        }
+        let f: File = toml::from_str(text)?;
+        f.gcode.validate()?;
+        Ok(f.gcode)
+    }
+
     /// Check every value.
     pub fn validate(&self) -> Result<()> {
         anyhow::ensure!(
