@@ -14,6 +14,7 @@
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use anyhow::{anyhow, bail, Context, Result};
 
@@ -21,9 +22,10 @@ use super::arc::{Centre, Plane};
 use super::comp::{Comp, Side};
 use super::cycles;
 use super::expr::{parameter_number, Params, MAX_PARAMETER};
+use super::machine::{Machine, ProbeKind, ProbeMove};
 use super::nurbs_block::{self, Collector, Collector6};
 use super::parse::{Keyword, Label, Stmt};
-use super::program::{File, Jump};
+use super::program::{File, Jump, Opened};
 use super::sink::Sink;
 use super::{ExtraAxes, GcodeSettings};
 
@@ -164,9 +166,20 @@ pub struct ToolData {
     pub length_mm: f64,
 }
 
+/// Where [`Interp::run_with`] stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stop {
+    /// Every line given so far has run; more may follow
+    /// ([`Interp::push_line`]).
+    NeedInput,
+    /// The program ended (M2, M30, a closing `%`, or the end of a whole
+    /// program's text).
+    Ended,
+}
+
 /// The interpreter's state.
-pub struct Interp<'s> {
-    pub(super) s: &'s GcodeSettings,
+pub struct Interp {
+    pub(super) s: Arc<GcodeSettings>,
     /// Machine position, mm (rotary axes in degrees).
     pub pos: [f64; 9],
     /// mm per program unit (1 or 25.4).
@@ -207,11 +220,25 @@ pub struct Interp<'s> {
     value_returned: bool,
     line: u32,
     executed: u64,
+    /// Executed lines allowed (`max_executed_lines` beyond the source's).
+    bound: u64,
+    percent_seen: bool,
+    any_content: bool,
+    /// Lines pushed one at a time: the main program grows, a program end
+    /// resets the modes instead of stopping.
+    live: bool,
+    /// Live lines of a control structure not yet closed.
+    pending: Vec<super::parse::Line>,
+    opened: Opened,
+    /// A probing move the block asked for, run by the [`Machine`].
+    probe: Option<ProbeMove>,
+    /// The persistent parameters as last read or written.
+    saved_state: String,
     /// The path so far.
     pub out: Sink,
 }
 
-impl Params for Interp<'_> {
+impl Params for Interp {
     fn number(&self, n: u32) -> Result<f64> {
         Ok(self.params.get(n as usize).copied().unwrap_or(0.0))
     }
@@ -250,10 +277,10 @@ fn truth(b: bool) -> f64 {
     }
 }
 
-impl<'s> Interp<'s> {
+impl Interp {
     /// A fresh machine for `settings`; `dir` is where `o<name> call` looks
     /// for `name.ngc` first.
-    pub fn new(s: &'s GcodeSettings, dir: Option<PathBuf>) -> Result<Self> {
+    pub fn new(s: Arc<GcodeSettings>, dir: Option<PathBuf>) -> Result<Self> {
         let mut params = vec![0.0; MAX_PARAMETER as usize + 1];
         for (k, off) in s.work_offsets.all().iter().enumerate() {
             for (i, v) in off.iter().enumerate() {
@@ -279,6 +306,8 @@ impl<'s> Interp<'s> {
         }
         let mut pos = [0.0; 9];
         pos[..3].copy_from_slice(&s.start_mm);
+        let out = Sink::new(s.start_mm, s.limits.max_points, s.chord_tolerance_mm);
+        let initial_tool = s.initial_tool;
         let mut it = Interp {
             s,
             pos,
@@ -296,8 +325,8 @@ impl<'s> Interp<'s> {
             g92: [0.0; 9],
             tlo: [0.0; 9],
             tools,
-            current_tool: s.initial_tool,
-            selected_tool: s.initial_tool,
+            current_tool: initial_tool,
+            selected_tool: initial_tool,
             diameter_mode: false,
             retract_r: false,
             cycle: CycleState::default(),
@@ -316,10 +345,59 @@ impl<'s> Interp<'s> {
             value_returned: false,
             line: 0,
             executed: 0,
-            out: Sink::new(s.start_mm, s.limits.max_points, s.chord_tolerance_mm),
+            bound: 0,
+            percent_seen: false,
+            any_content: false,
+            live: false,
+            pending: Vec::new(),
+            opened: Opened::default(),
+            probe: None,
+            saved_state: String::new(),
+            out,
         };
-        it.select_coord(0);
+        if let Some(path) = it.s.var_file.clone() {
+            if path.exists() {
+                let text = std::fs::read_to_string(&path)
+                    .with_context(|| format!("reading {}", path.display()))?;
+                for (n, v) in
+                    super::state::parse(&text).with_context(|| format!("in {}", path.display()))?
+                {
+                    it.params[n as usize] = v;
+                }
+            }
+        }
+        let system = it.params[P_COORD].round();
+        it.select_coord(if (1.0..=9.0).contains(&system) {
+            system as usize - 1
+        } else {
+            0
+        });
+        if it.params[P_G92_ON] != 0.0 {
+            for i in 0..9 {
+                it.g92[i] = it.params[P_G92 + i];
+            }
+        }
+        it.saved_state = it.state_text();
         Ok(it)
+    }
+
+    /// The persistent parameters as a `.var` file's text.
+    pub fn state_text(&self) -> String {
+        super::state::format(|n| self.params[n as usize])
+    }
+
+    /// Write the persistent parameters to `gcode.var_file` if they changed
+    /// since it was read or last written.
+    pub fn save_state(&mut self) -> Result<()> {
+        let Some(path) = self.s.var_file.clone() else {
+            return Ok(());
+        };
+        let text = self.state_text();
+        if text != self.saved_state {
+            super::state::write_atomically(&path, &text)?;
+            self.saved_state = text;
+        }
+        Ok(())
     }
 
     fn select_coord(&mut self, k: usize) {
@@ -427,18 +505,28 @@ impl<'s> Interp<'s> {
         Ok(Some(v))
     }
 
-    /// Load the main program.
+    /// Load the main program: its whole text, run by [`Interp::run`] or
+    /// [`Interp::run_with`].
     pub fn load_main(&mut self, src: &str, path: Option<PathBuf>) -> Result<()> {
         let f = File::parse(src, path)?;
         for (label, &i) in &f.subs {
             self.subs.insert(label.clone(), (0, i));
         }
         self.files.push(f);
+        self.start_main();
         Ok(())
     }
 
-    /// Run the program to its end (M2, M30, a closing `%`, or the last line).
-    pub fn run(&mut self) -> Result<()> {
+    /// Take the program a line at a time ([`Interp::push_line`]), as a
+    /// console or a sender streams it: a program end resets the modes
+    /// (RS274/NGC §3.6.1) and the next line starts the next program.
+    pub fn start_live(&mut self) {
+        self.live = true;
+        self.files.push(File::empty());
+        self.start_main();
+    }
+
+    fn start_main(&mut self) {
         self.frames.push(Frame {
             file: 0,
             pc: 0,
@@ -446,93 +534,270 @@ impl<'s> Interp<'s> {
             locals: HashMap::new(),
             repeats: HashMap::new(),
         });
-        let source_lines: u64 = self.files.iter().map(|f| f.lines.len() as u64).sum();
-        let bound = self
-            .s
-            .limits
-            .max_executed_lines
-            .saturating_add(source_lines);
-        let mut percent_seen = false;
-        let mut any_content = false;
-        while let Some(fr) = self.frames.last() {
-            let (fi, pc) = (fr.file, fr.pc);
-            let Some(l) = self.files[fi].lines.get(pc) else {
-                if self.frames.len() > 1 {
-                    let label = self
-                        .frames
-                        .last()
-                        .and_then(|f| f.call.as_ref().map(|c| c.label.clone()));
-                    bail!(
-                        "{}: the file ended inside subroutine {}",
-                        self.where_(fi),
-                        label.map_or(String::new(), |l| l.to_string())
-                    );
+    }
+
+    /// One more line of a live program (after [`Interp::start_live`]); it
+    /// runs at the next [`Interp::run_with`]. The lines of an O-word
+    /// structure (`sub`, `if`, loops) wait until it is closed, so that it
+    /// runs as a whole, as LinuxCNC's MDI does. `Ok(false)`: waiting.
+    pub fn push_line(&mut self, text: &str) -> Result<bool> {
+        if !self.live {
+            bail!("push_line needs a live interpreter (start_live)");
+        }
+        let number = self.files[0]
+            .lines
+            .last()
+            .map_or(1, |l| l.number.saturating_add(1))
+            .max(
+                self.pending
+                    .last()
+                    .map_or(1, |l| l.number.saturating_add(1)),
+            );
+        let l = super::parse::line(text, number)?;
+        self.opened.step(&l);
+        self.pending.push(l);
+        if !self.opened.closed() {
+            return Ok(false);
+        }
+        let lines = std::mem::take(&mut self.pending);
+        let base = self.files[0].lines.len();
+        let added = self.files[0].append(lines)?;
+        for (label, i) in added {
+            self.subs.insert(label, (0, base + i));
+        }
+        Ok(true)
+    }
+
+    /// Where the tool is, machine coordinates, mm.
+    pub fn position_mm(&self) -> [f64; 3] {
+        [self.pos[0], self.pos[1], self.pos[2]]
+    }
+
+    /// The tool is at `pos_mm` (machine coordinates): after a jog, a
+    /// probe or homing, which the program did not command.
+    pub fn set_position_mm(&mut self, pos_mm: [f64; 3]) {
+        self.pos[..3].copy_from_slice(&pos_mm);
+        self.out.restart_at(pos_mm);
+    }
+
+    /// Run a whole program (after [`Interp::load_main`]) to its end, its
+    /// output left in [`Interp::out`].
+    pub fn run(&mut self) -> Result<()> {
+        self.run_lines()?;
+        self.finish(self.line)
+    }
+
+    /// Run what has been given (a whole program, or the live lines so far)
+    /// until it ends or needs more lines, handing every point and event to
+    /// `machine` in order as each line completes; probing moves run there.
+    pub fn run_with(&mut self, machine: &mut dyn Machine) -> Result<Stop> {
+        let flush = |out: &mut Sink, m: &mut dyn Machine| -> Result<()> {
+            let mut r = Ok(());
+            out.drain(&mut |item| {
+                if r.is_ok() {
+                    r = m.emit(item);
                 }
-                break;
-            };
-            let line = l.number;
-            self.line = line;
-            self.executed += 1;
-            if self.executed > bound {
-                bail!(
-                    "line {line}: stopped after executing {} lines (gcode.limits.max_executed_lines = {} beyond the program's own {source_lines}): an endless O-word loop?",
-                    self.executed - 1,
-                    self.s.limits.max_executed_lines
-                );
+            });
+            r
+        };
+        loop {
+            if let Some(p) = machine.moved_to() {
+                self.set_position_mm(p);
             }
-            if let Some(f) = self.frames.last_mut() {
-                f.pc += 1;
+            let r = self.run_one();
+            if let Some(req) = self.probe.take() {
+                flush(&mut self.out, machine)?;
+                let got = machine.probe(&req);
+                self.probe_done(&req, got)?;
             }
-            let stmt = l.stmt.clone();
-            let block_delete = l.block_delete;
-            let r = match &stmt {
-                Stmt::Percent => {
-                    if percent_seen || any_content {
-                        break;
-                    }
-                    percent_seen = true;
-                    Ok(true)
+            match r? {
+                Some(Stop::NeedInput) => {
+                    flush(&mut self.out, machine)?;
+                    return Ok(Stop::NeedInput);
                 }
-                Stmt::OWord {
-                    label,
-                    keyword,
-                    args,
-                } => {
-                    any_content = true;
-                    self.oword(fi, pc, label, *keyword, args).map(|()| true)
-                }
-                Stmt::Block {
-                    words,
-                    assigns,
-                    abort,
-                } => {
-                    if block_delete && self.s.block_delete {
-                        Ok(true)
-                    } else {
-                        if !words.is_empty() || !assigns.is_empty() {
-                            any_content = true;
-                        }
-                        self.block(line, words, assigns, abort.as_deref())
+                Some(Stop::Ended) => {
+                    if self.live {
+                        self.finish(self.line)?;
+                        flush(&mut self.out, machine)?;
+                        self.end_of_program();
+                        continue;
                     }
+                    self.finish(self.line)?;
+                    flush(&mut self.out, machine)?;
+                    return Ok(Stop::Ended);
                 }
-            };
-            match r {
-                Ok(true) => {}
-                Ok(false) => break, // program end
-                Err(e) => {
-                    let e = if e.to_string().starts_with("line ") {
-                        e
-                    } else {
-                        e.context(format!("line {line}"))
-                    };
-                    if fi > 0 {
-                        return Err(e.context(self.where_(fi)));
+                None => {
+                    flush(&mut self.out, machine)?;
+                    if self.live {
+                        self.save_state()?;
                     }
-                    return Err(e);
                 }
             }
         }
-        self.finish(self.line)
+    }
+
+    fn run_lines(&mut self) -> Result<()> {
+        loop {
+            match self.run_one()? {
+                Some(_) => return Ok(()),
+                None => {
+                    if self.probe.is_some() {
+                        let l = self.line;
+                        bail!("line {l}: G38 probing {NEEDS_MACHINE} (where the probe trips)");
+                    }
+                }
+            }
+        }
+    }
+
+    /// Run the next line: `None` when it ran and more may follow.
+    fn run_one(&mut self) -> Result<Option<Stop>> {
+        if self.bound == 0 {
+            let source_lines: u64 = self.files.iter().map(|f| f.lines.len() as u64).sum();
+            self.bound = self
+                .s
+                .limits
+                .max_executed_lines
+                .saturating_add(source_lines);
+        }
+        let Some(fr) = self.frames.last() else {
+            return Ok(Some(Stop::Ended));
+        };
+        let (fi, pc) = (fr.file, fr.pc);
+        let Some(l) = self.files[fi].lines.get(pc) else {
+            if self.frames.len() > 1 {
+                let label = self
+                    .frames
+                    .last()
+                    .and_then(|f| f.call.as_ref().map(|c| c.label.clone()));
+                bail!(
+                    "{}: the file ended inside subroutine {}",
+                    self.where_(fi),
+                    label.map_or(String::new(), |l| l.to_string())
+                );
+            }
+            return Ok(Some(if self.live {
+                Stop::NeedInput
+            } else {
+                Stop::Ended
+            }));
+        };
+        let line = l.number;
+        self.line = line;
+        self.executed += 1;
+        if self.executed > self.bound {
+            bail!(
+                "line {line}: stopped after executing {} lines (gcode.limits.max_executed_lines = {} beyond the program's own lines): an endless O-word loop?",
+                self.executed - 1,
+                self.s.limits.max_executed_lines
+            );
+        }
+        if self.live && self.frames.len() == 1 {
+            // A live program's lines count once each, as a file's do.
+            self.bound = self.bound.saturating_add(1);
+        }
+        if let Some(f) = self.frames.last_mut() {
+            f.pc += 1;
+        }
+        let stmt = l.stmt.clone();
+        let block_delete = l.block_delete;
+        let r = match &stmt {
+            Stmt::Percent => {
+                if self.percent_seen || self.any_content {
+                    return Ok(Some(Stop::Ended));
+                }
+                self.percent_seen = true;
+                Ok(true)
+            }
+            Stmt::OWord {
+                label,
+                keyword,
+                args,
+            } => {
+                self.any_content = true;
+                self.oword(fi, pc, label, *keyword, args).map(|()| true)
+            }
+            Stmt::Block {
+                words,
+                assigns,
+                abort,
+            } => {
+                if block_delete && self.s.block_delete {
+                    Ok(true)
+                } else {
+                    if !words.is_empty() || !assigns.is_empty() {
+                        self.any_content = true;
+                    }
+                    self.block(line, words, assigns, abort.as_deref())
+                }
+            }
+        };
+        match r {
+            Ok(true) => Ok(None),
+            Ok(false) => Ok(Some(Stop::Ended)),
+            Err(e) => {
+                let e = if e.to_string().starts_with("line ") {
+                    e
+                } else {
+                    e.context(format!("line {line}"))
+                };
+                if fi > 0 {
+                    return Err(e.context(self.where_(fi)));
+                }
+                Err(e)
+            }
+        }
+    }
+
+    /// A live program's end (M2, M30, `%`): the modes RS274/NGC resets
+    /// (Kramer et al. §3.6.1; LinuxCNC's `convert_stop`, Grbl's
+    /// `gc_execute_line` program-flow case): G54, G17, G90, G94, the motion
+    /// mode G1, spindle and coolant off. The G92 offset is kept, as Grbl
+    /// keeps it (RS274/NGC and LinuxCNC clear it: a live front speaks
+    /// Grbl's dialect). The next line starts the next program.
+    fn end_of_program(&mut self) {
+        self.select_coord(0);
+        self.plane = Plane::Xy;
+        self.absolute = true;
+        self.feed_mode = FeedMode::PerMinute;
+        self.motion = Some(Motion::Linear);
+        self.cycle = CycleState::default();
+        self.percent_seen = false;
+        self.any_content = false;
+        self.frames.truncate(1);
+        if let Some(f) = self.frames.last_mut() {
+            f.pc = self.files[0].lines.len();
+        }
+        self.out.all_off(self.line);
+    }
+
+    /// Apply a probing move's outcome (LinuxCNC's `convert_probe`, Grbl's
+    /// `gc_execute_line` probe case): #5061-#5069 the trip position in
+    /// program coordinates, #5070 1 if it tripped; the tool where the
+    /// machine says it is.
+    fn probe_done(&mut self, req: &ProbeMove, got: Result<Option<[f64; 3]>>) -> Result<()> {
+        let line = req.line;
+        let got = got.map_err(|e| anyhow!("line {line}: G38.{}: {e:#}", req.kind.minor()))?;
+        let (tripped, at) = match got {
+            Some(p) => (true, p),
+            None => (false, req.target_mm),
+        };
+        let mut pos = self.pos;
+        pos[..3].copy_from_slice(&at);
+        self.pos = pos;
+        self.out.restart_at(at);
+        for i in 0..9 {
+            self.params[5061 + i] = self.program(i);
+        }
+        self.params[5070] = truth(tripped);
+        if !tripped && req.kind.error_if_not_tripped() {
+            bail!(
+                "line {line}: G38.{}: the probe did not {} before the end of the move",
+                req.kind.minor(),
+                if req.kind.toward() { "trip" } else { "clear" }
+            );
+        }
+        Ok(())
     }
 
     fn where_(&self, fi: usize) -> String {
@@ -961,6 +1226,7 @@ impl<'s> Interp<'s> {
         }
         // Classify G codes.
         let mut motion_word: Option<Motion> = None;
+        let mut probe: Option<ProbeKind> = None;
         let mut nonmodal: Option<(u32, u32)> = None;
         let mut g53 = false;
         let mut set_motion = |m: Motion, b: &Blk| -> Result<()> {
@@ -1005,9 +1271,7 @@ impl<'s> Interp<'s> {
                 (61, 0) | (61, 1) | (64, 0) => {}
                 (90, 0) | (91, 0) | (90, 1) | (91, 1) | (93, 0) | (94, 0) | (95, 0) => {}
                 (96, 0) | (97, 0) | (98, 0) | (99, 0) => {}
-                (38, _) => {
-                    bail!("line {line}: G38.{m} probing {NEEDS_MACHINE} (where the probe trips)")
-                }
+                (38, 2..=5) => probe = ProbeKind::from_minor(m),
                 (76, 0) => bail!("line {line}: G76 threading cycle is not supported"),
                 (70..=72, _) => bail!("line {line}: G{g} lathe contour cycle is not supported"),
                 (33, 1) => bail!("line {line}: G33.1 rigid tapping is not supported"),
@@ -1244,6 +1508,15 @@ impl<'s> Interp<'s> {
         }
         // Motion.
         let axis_words_used = nonmodal.is_some_and(|(g, _)| g != 4);
+        if let Some(kind) = probe {
+            if motion_word.is_some() || axis_words_used {
+                bail!(
+                    "line {line}: G38.{} and another motion in one block",
+                    kind.minor()
+                );
+            }
+            return self.probe_block(b, kind).map(|()| true);
+        }
         if let Some(m) = motion_word {
             if let (Some(Motion::Cycle(_)), false) = (self.motion, matches!(m, Motion::Cycle(_))) {
                 self.cycle = CycleState::default();
@@ -1271,6 +1544,40 @@ impl<'s> Interp<'s> {
             return Ok(false);
         }
         Ok(true)
+    }
+
+    /// A G38.2-.5 block: the probing move the [`Machine`] runs (it is not
+    /// modal here: each probe is its own block, as senders write them).
+    fn probe_block(&mut self, b: &Blk, kind: ProbeKind) -> Result<()> {
+        let line = b.line;
+        self.comp_check(line, "G38 probing")?;
+        if !b.has_axis() {
+            bail!("line {line}: G38.{} needs an axis word", kind.minor());
+        }
+        if self.feed_mode == FeedMode::InverseTime {
+            bail!(
+                "line {line}: G38.{} in inverse time mode (G93)",
+                kind.minor()
+            );
+        }
+        let target = self.target(b, false)?;
+        self.check_extra_axes(&target, line)?;
+        let to = [target[0], target[1], target[2]];
+        if to == self.position_mm() {
+            bail!(
+                "line {line}: G38.{}: the probe move ends where it starts",
+                kind.minor()
+            );
+        }
+        let feed = self.feed_cap(line, super::dist3(&self.pos, &target))?;
+        self.comp.flush(&mut self.out, line)?;
+        self.probe = Some(ProbeMove {
+            kind,
+            target_mm: to,
+            feed_mm_per_min: feed,
+            line,
+        });
+        Ok(())
     }
 
     fn comp_check(&self, line: u32, what: &str) -> Result<()> {

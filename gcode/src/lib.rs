@@ -1,12 +1,32 @@
-//! G-code programs as CAM systems and LinuxCNC write them → a [`Toolpath`].
+//! G-code programs as CAM systems and LinuxCNC write them → moves, machine
+//! events and [`toolpath::Toolpath`]s, on the host (the sender, host-sim,
+//! a live front).
 //!
 //! The reader is an RS274/NGC interpreter in LinuxCNC's dialect: the syntax
-//! ([`parse`]), expressions ([`expr`]), numbered and named parameters and
+//! ([`mod@parse`]), expressions ([`expr`]), numbered and named parameters and
 //! O-word control flow ([`interp`], [`program`]), canned cycles
 //! ([`cycles`]), cutter radius compensation ([`comp`]), arcs ([`arc`]) and
 //! curve blocks ([`nurbs_block`]). All output is in mm, in machine
 //! coordinates (program coordinates plus the work, G92 and tool offsets,
 //! all zero unless configured).
+//!
+//! ## A whole file, or a line at a time
+//!
+//! [`interp::Interp`] runs against a [`machine::Machine`], which receives
+//! every point and machine event ([`sink::Item`]) in program order as each
+//! line completes, and answers what only a machine knows: where the tool
+//! is after a move the program did not command (a jog, homing), and where
+//! a probe tripped (G38.2-.5, then #5061-#5070). A whole file
+//! ([`read()`], [`parse()`], [`run()`]) is the same loop over its lines against
+//! [`machine::Collect`], which keeps the output and refuses probing. A live
+//! front calls [`interp::Interp::start_live`], then
+//! [`interp::Interp::push_line`] and [`interp::Interp::run_with`] for each
+//! line it receives; an O-word structure runs once it is closed; a program
+//! end resets the modes and the next line starts the next program.
+//!
+//! Persistent state (work offsets G54-G59.3, G28/G30 positions, G92) loads
+//! from LinuxCNC's parameter file (`gcode.var_file`, [`state`]) and, for a
+//! live program, is written back when it changes.
 //!
 //! | words | handling |
 //! |---|---|
@@ -28,7 +48,8 @@
 //! | M0 M1 M19 M48-M53 M62-M65 M67 M68, G4, G61 G61.1 G64, G96 G97, comments, N, `/` lines (block delete on) | no effect on the path |
 //! | M2 M30, a second `%` | end of program |
 //! | M70-M73 | modal state saved and restored |
-//! | G38 probing, M66 inputs, M100-M199, `#<_hal[…]>`, `#<_ini[…]>`, G88 | refused: "needs live machine state" |
+//! | G38.2 G38.3 G38.4 G38.5 | a probing move run by the [`machine::Machine`]: #5061-#5069 the trip position (program coordinates), #5070 whether it tripped; G38.2/.4 that do not trip are errors. Reading a file ahead of time: refused, "needs live machine state" |
+//! | M66 inputs, M100-M199, `#<_hal[…]>`, `#<_ini[…]>`, G88 | refused: "needs live machine state" |
 //! | anything else (G76, G70-G72, G33.1, rotation in G10, …) | **error naming the file, line and feature** |
 //!
 //! Every point keeps its source line, and the feed of its block (or the
@@ -42,6 +63,7 @@ pub mod cycles;
 pub mod expr;
 pub mod inputs;
 pub mod interp;
+pub mod machine;
 pub mod nurbs;
 pub mod nurbs_block;
 pub mod parse;
@@ -49,6 +71,7 @@ pub mod path_csv;
 pub mod program;
 pub mod shapes;
 pub mod sink;
+pub mod state;
 pub mod toolpath;
 
 use std::path::{Path, PathBuf};
@@ -85,6 +108,11 @@ pub struct GcodeSettings {
     pub work_offsets: WorkOffsets,
     /// The tool table.
     pub tools: Vec<ToolEntry>,
+    /// LinuxCNC's parameter file (`.var`): work offsets, G28/G30 and G92
+    /// read from it at the start (over `work_offsets` and
+    /// `reference_positions`) and, for a live program, written back when
+    /// they change.
+    pub var_file: Option<PathBuf>,
     /// Resource bounds.
     pub limits: Limits,
 }
@@ -103,6 +131,7 @@ impl Default for GcodeSettings {
             reference_positions: ReferencePositions::default(),
             work_offsets: WorkOffsets::default(),
             tools: Vec::new(),
+            var_file: None,
             limits: Limits::default(),
         }
     }
@@ -297,14 +326,18 @@ pub struct Program {
 /// Run G-code text; `dir` is where its subroutine files are.
 pub fn run(src: &str, dir: Option<&Path>, settings: &GcodeSettings) -> Result<Program> {
     settings.validate()?;
-    let mut it = interp::Interp::new(settings, dir.map(Path::to_path_buf))?;
+    let mut it = interp::Interp::new(
+        std::sync::Arc::new(settings.clone()),
+        dir.map(Path::to_path_buf),
+    )?;
     it.load_main(src, None)?;
-    it.run()?;
+    let mut out = machine::Collect::default();
+    it.run_with(&mut out)?;
     Ok(Program {
-        points: it.out.points,
-        caps: it.out.caps,
-        lines: it.out.lines,
-        events: it.out.events,
+        points: out.points,
+        caps: out.caps,
+        lines: out.lines,
+        events: out.events,
     })
 }
 

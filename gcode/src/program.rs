@@ -61,12 +61,97 @@ impl File {
         })
     }
 
+    /// A file with no lines yet: a live program's, grown by
+    /// [`File::append`].
+    pub fn empty() -> Self {
+        File {
+            path: None,
+            lines: Vec::new(),
+            jumps: HashMap::new(),
+            subs: HashMap::new(),
+        }
+    }
+
+    /// Append `lines`, whose O-word structures are complete in themselves;
+    /// the subroutines they define, by their index among `lines`.
+    pub fn append(&mut self, lines: Vec<Line>) -> Result<Vec<(Label, usize)>> {
+        let (jumps, subs) = structure(&lines)?;
+        let base = self.lines.len();
+        for (label, &i) in &subs {
+            if self.subs.contains_key(label) {
+                bail!("line {}: {label} sub is defined twice", lines[i].number);
+            }
+        }
+        let shift = |j: Jump| match j {
+            Jump::SubEnd(e) => Jump::SubEnd(base + e),
+            Jump::Branch { next, end } => Jump::Branch {
+                next: base + next,
+                end: base + end,
+            },
+            Jump::Else { end } => Jump::Else { end: base + end },
+            Jump::LoopStart { end } => Jump::LoopStart { end: base + end },
+            Jump::LoopEnd { start } => Jump::LoopEnd {
+                start: base + start,
+            },
+            Jump::InLoop { start } => Jump::InLoop {
+                start: base + start,
+            },
+        };
+        for (i, j) in jumps {
+            self.jumps.insert(base + i, shift(j));
+        }
+        let added: Vec<(Label, usize)> = subs.into_iter().collect();
+        for (label, i) in &added {
+            self.subs.insert(label.clone(), base + i);
+        }
+        self.lines.extend(lines);
+        Ok(added)
+    }
+
     /// The label and keyword of line `i`, if it is an O-word.
     pub fn oword(&self, i: usize) -> Option<(&Label, Keyword)> {
         match &self.lines.get(i)?.stmt {
             Stmt::OWord { label, keyword, .. } => Some((label, *keyword)),
             _ => None,
         }
+    }
+}
+
+/// How deep a stream of lines is inside O-word structures (`sub`, `if`,
+/// loops): a live program runs a structure once it is closed.
+#[derive(Clone, Debug, Default)]
+pub struct Opened {
+    open: Vec<(Label, Keyword)>,
+}
+
+impl Opened {
+    /// Account for one more line.
+    pub fn step(&mut self, l: &Line) {
+        let Stmt::OWord { label, keyword, .. } = &l.stmt else {
+            return;
+        };
+        let top = |open: &[(Label, Keyword)], k: Keyword| {
+            open.last().is_some_and(|(lb, kw)| lb == label && *kw == k)
+        };
+        match keyword {
+            Keyword::Sub | Keyword::If | Keyword::Do | Keyword::Repeat => {
+                self.open.push((label.clone(), *keyword))
+            }
+            Keyword::While if top(&self.open, Keyword::Do) => {
+                self.open.pop();
+            }
+            Keyword::While => self.open.push((label.clone(), Keyword::While)),
+            Keyword::EndSub | Keyword::EndIf | Keyword::EndWhile | Keyword::EndRepeat => {
+                // A mismatched closer is left to the structure check.
+                self.open.pop();
+            }
+            _ => {}
+        }
+    }
+
+    /// No structure is open.
+    pub fn closed(&self) -> bool {
+        self.open.is_empty()
     }
 }
 

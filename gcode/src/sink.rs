@@ -8,7 +8,29 @@ use anyhow::{bail, Result};
 use super::arc::{self, Centre, Plane};
 use crate::toolpath::{MachineEvent, SpindleDir};
 
-/// The points of a program so far.
+/// One piece of the interpreter's output, in program order.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Item {
+    /// The tool moves in a straight line to `pos_mm` (machine coordinates);
+    /// the first item of a run is the start, with no cap and line 0.
+    Point {
+        /// Where, mm.
+        pos_mm: [f64; 3],
+        /// The feed cap of the move, mm/min (`None`: the start).
+        cap: Option<f64>,
+        /// Source line.
+        line: u32,
+    },
+    /// A machine command once the tool has reached the last point.
+    Event {
+        /// Source line.
+        line: u32,
+        /// What.
+        event: MachineEvent,
+    },
+}
+
+/// The points of a program so far (those not yet handed out).
 pub struct Sink {
     /// Points, mm (machine coordinates).
     pub points: Vec<[f64; 3]>,
@@ -26,6 +48,10 @@ pub struct Sink {
     rpm: f64,
     flood: bool,
     mist: bool,
+    /// Points handed out and dropped before `points[0]`.
+    base: usize,
+    /// Points of `points` already handed out.
+    sent: usize,
 }
 
 impl Sink {
@@ -42,11 +68,68 @@ impl Sink {
             rpm: 0.0,
             flood: false,
             mist: false,
+            base: 0,
+            sent: 0,
         }
     }
 
+    /// Spindle and coolant off (a program's end), as events only for what
+    /// is on.
+    pub fn all_off(&mut self, line: u32) {
+        if self.spindle != SpindleDir::Off {
+            self.m_word(line, 5, self.rpm);
+        }
+        if self.flood || self.mist {
+            self.m_word(line, 9, self.rpm);
+        }
+    }
+
+    /// The tool is at `p` without a move of the program (a probe, a jog):
+    /// the next move starts there. Call once everything is handed out.
+    pub fn restart_at(&mut self, p: [f64; 3]) {
+        if self.sent == self.points.len() {
+            if let Some(last) = self.points.last_mut() {
+                *last = p;
+                return;
+            }
+        }
+        self.points.push(p);
+        self.caps.push(None);
+        self.lines.push(0);
+    }
+
+    /// Points made so far, handed out or not.
+    pub fn total_points(&self) -> usize {
+        self.base + self.points.len()
+    }
+
+    /// Hand out the points and events made since the last call, in order,
+    /// keeping only the last point (where the next move starts).
+    pub fn drain(&mut self, out: &mut impl FnMut(Item)) {
+        let mut events = std::mem::take(&mut self.events).into_iter().peekable();
+        for k in self.sent..self.points.len() {
+            while let Some((_, line, event)) = events.next_if(|e| e.0 < self.base + k) {
+                out(Item::Event { line, event });
+            }
+            out(Item::Point {
+                pos_mm: self.points[k],
+                cap: self.caps[k],
+                line: self.lines[k],
+            });
+        }
+        for (_, line, event) in events {
+            out(Item::Event { line, event });
+        }
+        let keep_from = self.points.len().saturating_sub(1);
+        self.points.drain(..keep_from);
+        self.caps.drain(..keep_from);
+        self.lines.drain(..keep_from);
+        self.base += keep_from;
+        self.sent = self.points.len();
+    }
+
     fn event(&mut self, line: u32, e: MachineEvent) {
-        let at = self.points.len().saturating_sub(1);
+        let at = (self.base + self.points.len()).saturating_sub(1);
         self.events.push((at, line, e));
     }
 
@@ -98,7 +181,7 @@ impl Sink {
 
     /// How many more points fit.
     pub fn room(&self) -> usize {
-        self.max_points.saturating_sub(self.points.len())
+        self.max_points.saturating_sub(self.total_points())
     }
 
     /// Fail unless `n` more points fit.
@@ -107,7 +190,7 @@ impl Sink {
             bail!(
                 "line {line}: {what} needs {} points; with the {} already made that is more than gcode.limits.max_points = {}",
                 if n.is_finite() { format!("{n:.0}") } else { "unboundedly many".into() },
-                self.points.len(),
+                self.total_points(),
                 self.max_points
             );
         }
