@@ -1,6 +1,8 @@
 //! CSV point lists: `x,y,z` in mm with an optional fourth column, the feed cap
-//! in mm/min. A header row is recognised (first field not a number) and
-//! skipped; `#` starts a comment line.
+//! in mm/min. A first row of words only (no field a number, as `x,y,z,feed`)
+//! is a header and skipped; a first row mixing numbers and other text is a
+//! point with a typo (`1O,0,0`), an error naming its line. `#` starts a
+//! comment line.
 
 use std::path::Path;
 
@@ -28,7 +30,7 @@ pub fn parse(text: &str) -> Result<Vec<PathPoint>> {
         let record = record?;
         let line = record.position().map_or(i as u64 + 1, |p| p.line());
         let fields: Vec<&str> = record.iter().collect();
-        if out.is_empty() && fields.first().is_some_and(|f| f.parse::<f64>().is_err()) {
+        if i == 0 && fields.iter().all(|f| f.parse::<f64>().is_err()) {
             continue; // header
         }
         if fields.len() < 3 || fields.len() > 4 {
@@ -102,5 +104,20 @@ mod tests {
         assert!(parse("x,y,z\n").is_err());
         let e = format!("{:#}", parse("0,0,0,-5\n").unwrap_err());
         assert!(e.contains("feed"), "{e}");
+    }
+
+    #[test]
+    fn only_a_first_row_of_words_is_a_header() {
+        // A typo in the first point is not taken for a header.
+        let e = format!("{:#}", parse("1O,0,0\n1,1,1\n").unwrap_err());
+        assert!(e.contains("line 1") && e.contains("\"1O\""), "{e}");
+        let e = format!("{:#}", parse("0,0,O\n1,1,1\n").unwrap_err());
+        assert!(e.contains("line 1"), "{e}");
+        // Words only: a header, in any case, with or without the feed.
+        assert_eq!(parse("X,Y,Z\n1,2,3\n").unwrap().len(), 1);
+        assert_eq!(parse("x, y, z, f\n1,2,3\n").unwrap()[0].tag, 2);
+        // A second row of words is not a header.
+        let e = format!("{:#}", parse("x,y,z\nx,y,z\n1,2,3\n").unwrap_err());
+        assert!(e.contains("line 2"), "{e}");
     }
 }
