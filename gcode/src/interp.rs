@@ -844,6 +844,12 @@ impl<'s> Interp<'s> {
         assigns: &[(super::expr::ParamRef, super::expr::Expr)],
         abort: Option<&str>,
     ) -> Result<bool> {
+        // A line after the program's end that did not parse, reached after
+        // all (a subprogram defined after M30).
+        let file = self.frames.last().map_or(0, |f| f.file);
+        if let Some(e) = self.files.get(file).and_then(|f| f.unparsed.get(&line)) {
+            bail!("{e}");
+        }
         if let Some(msg) = abort {
             bail!("line {line}: the program aborts here: (abort, {msg})");
         }

@@ -49,6 +49,7 @@ pub mod path_csv;
 pub mod program;
 pub mod shapes;
 pub mod sink;
+pub mod text;
 pub mod toolpath;
 
 use std::path::{Path, PathBuf};
