@@ -21,6 +21,8 @@
 
 use anyhow::{anyhow, bail, Result};
 
+use crate::text::short;
+
 /// A parameter reference (the target of an assignment).
 #[derive(Clone, Debug, PartialEq)]
 pub enum ParamRef {
@@ -199,7 +201,7 @@ pub fn unary(f: Func, x: f64) -> Result<f64> {
         Func::Abs => x.abs(),
         Func::Acos | Func::Asin => {
             if !(-1.0..=1.0).contains(&x) {
-                bail!("{} of {}: outside [-1, 1]", func_name(f), x);
+                bail!("{} of {}: outside [-1, 1]", func_name(f), short(x));
             }
             if f == Func::Acos {
                 x.acos().to_degrees()
@@ -217,13 +219,13 @@ pub fn unary(f: Func, x: f64) -> Result<f64> {
         Func::Round => x.round(),
         Func::Ln => {
             if x <= 0.0 {
-                bail!("LN of {}: not positive", x);
+                bail!("LN of {}: not positive", short(x));
             }
             x.ln()
         }
         Func::Sqrt => {
             if x < 0.0 {
-                bail!("SQRT of {}: negative", x);
+                bail!("SQRT of {}: negative", short(x));
             }
             x.sqrt()
         }
@@ -236,7 +238,11 @@ pub fn binary(op: BinOp, a: f64, b: f64) -> Result<f64> {
     Ok(match op {
         BinOp::Pow => {
             if a < 0.0 && b.floor() != b {
-                bail!("{} ** {}: a negative number to a non-integer power", a, b);
+                bail!(
+                    "{} ** {}: a negative number to a non-integer power",
+                    short(a),
+                    short(b)
+                );
             }
             a.powf(b)
         }
@@ -249,7 +255,7 @@ pub fn binary(op: BinOp, a: f64, b: f64) -> Result<f64> {
         }
         BinOp::Mod => {
             if b == 0.0 {
-                bail!("{} MOD 0", a);
+                bail!("{} MOD 0", short(a));
             }
             let m = a % b;
             if m < 0.0 {
@@ -292,7 +298,7 @@ pub fn parameter_number(v: f64) -> Result<u32> {
     if !v.is_finite() || (v - r).abs() > 1e-4 || r < 1.0 || r > MAX_PARAMETER as f64 {
         bail!(
             "parameter number {} is not a whole number in 1..={MAX_PARAMETER}",
-            v
+            short(v)
         );
     }
     Ok(r as u32)

@@ -25,6 +25,7 @@ use super::nurbs_block::{self, Collector, Collector6};
 use super::parse::{Keyword, Label, Stmt};
 use super::program::{File, Jump};
 use super::sink::Sink;
+use super::text::short;
 use super::{ExtraAxes, GcodeSettings};
 
 /// Axis letters in parameter order.
@@ -872,23 +873,23 @@ impl<'s> Interp<'s> {
                 'G' => {
                     let t = (v * 10.0).round();
                     if (v * 10.0 - t).abs() > 1e-6 || !(0.0..=9999.0).contains(&t) {
-                        bail!("line {line}: G{v} is not a G-code");
+                        bail!("line {line}: G{} is not a G-code", short(v));
                     }
                     let (major, minor) = (t as u32 / 10, t as u32 % 10);
                     if b.g.contains(&(major, minor)) {
-                        bail!("line {line}: G{v} appears twice");
+                        bail!("line {line}: G{} appears twice", short(v));
                     }
                     b.g.push((major, minor));
                 }
                 'M' => {
                     if v.fract() != 0.0 || !(0.0..=1000.0).contains(&v) {
-                        bail!("line {line}: M{v} is not an M-code");
+                        bail!("line {line}: M{} is not an M-code", short(v));
                     }
                     b.m.push(v as u32);
                 }
                 '$' => {
                     if v.fract() != 0.0 || v < -1.0 {
-                        bail!("line {line}: spindle ${v} is not a spindle number");
+                        bail!("line {line}: spindle ${} is not a spindle number", short(v));
                     }
                 }
                 '@' | '^' => {
@@ -1034,13 +1035,13 @@ impl<'s> Interp<'s> {
         }
         if let Some(f) = b.get('F') {
             if f < 0.0 {
-                bail!("line {line}: feed F{f} is negative");
+                bail!("line {line}: feed F{} is negative", short(f));
             }
             self.feed = Some(f);
         }
         if let Some(s) = b.get('S') {
             if s < 0.0 {
-                bail!("line {line}: spindle speed S{s} is negative");
+                bail!("line {line}: spindle speed S{} is negative", short(s));
             }
             self.rpm = s;
             if !b.m.iter().any(|m| matches!(m, 3..=5)) {
@@ -1049,7 +1050,7 @@ impl<'s> Interp<'s> {
         }
         if let Some(t) = b.get('T') {
             if t < 0.0 || t.fract() != 0.0 {
-                bail!("line {line}: tool T{t} is not a whole number ≥ 0");
+                bail!("line {line}: tool T{} is not a whole number ≥ 0", short(t));
             }
             self.selected_tool = t as u32;
         }
@@ -1061,7 +1062,7 @@ impl<'s> Interp<'s> {
                         .get('Q')
                         .ok_or_else(|| anyhow!("line {line}: M61 needs a Q word"))?;
                     if q < 0.0 || q.fract() != 0.0 {
-                        bail!("line {line}: M61 Q{q} is not a tool number");
+                        bail!("line {line}: M61 Q{} is not a tool number", short(q));
                     }
                     self.current_tool = q as u32;
                     self.selected_tool = q as u32;
@@ -1139,7 +1140,7 @@ impl<'s> Interp<'s> {
                 } else {
                     let t = match b.get('D') {
                         Some(d) if d >= 0.0 && d.fract() == 0.0 => d as u32,
-                        Some(d) => bail!("line {line}: D{d} is not a tool number"),
+                        Some(d) => bail!("line {line}: D{} is not a tool number", short(d)),
                         None => self.current_tool,
                     };
                     match self.tools.get(&t) {
@@ -1163,7 +1164,7 @@ impl<'s> Interp<'s> {
         if b.has_g(43, 0) || b.has_g(43, 2) {
             let t = match b.get('H') {
                 Some(h) if h >= 0.0 && h.fract() == 0.0 => h as u32,
-                Some(h) => bail!("line {line}: H{h} is not a tool number"),
+                Some(h) => bail!("line {line}: H{} is not a tool number", short(h)),
                 None => self.current_tool,
             };
             let len = match self.tools.get(&t) {
@@ -1379,12 +1380,16 @@ impl<'s> Interp<'s> {
             .get('P')
             .ok_or_else(|| anyhow!("line {line}: G10 needs a P word"))?;
         if p.fract() != 0.0 || p < 0.0 {
-            bail!("line {line}: G10 P{p} is not a whole number");
+            bail!("line {line}: G10 P{} is not a whole number", short(p));
         }
         match l as u32 {
             2 | 20 => {
                 if !(0.0..=9.0).contains(&p) {
-                    bail!("line {line}: G10 L{l} P{p}: coordinate systems are P0 (active) to P9");
+                    bail!(
+                        "line {line}: G10 L{} P{}: coordinate systems are P0 (active) to P9",
+                        short(l),
+                        short(p)
+                    );
                 }
                 if b.get('R').is_some_and(|r| r != 0.0) {
                     bail!("line {line}: coordinate-system rotation (G10 R) is not supported");
@@ -1423,7 +1428,7 @@ impl<'s> Interp<'s> {
                     };
                 }
             }
-            _ => bail!("line {line}: G10 L{l} is not supported"),
+            _ => bail!("line {line}: G10 L{} is not supported", short(l)),
         }
         Ok(())
     }
@@ -1585,7 +1590,7 @@ impl<'s> Interp<'s> {
                 let turns = match b.get('P') {
                     None => 0.0,
                     Some(p) if p >= 1.0 && p.fract() == 0.0 => p - 1.0,
-                    Some(p) => bail!("line {line}: arc P{p} must be a whole number ≥ 1"),
+                    Some(p) => bail!("line {line}: arc P{} must be a whole number ≥ 1", short(p)),
                 };
                 let to = [target[0], target[1], target[2]];
                 // Length for inverse-time feed: estimated from the chord and
@@ -1969,6 +1974,25 @@ mod tests {
             "G1 X1 F100\nG4 P0 G1 X2\n",
         ] {
             assert!(parse("t", src, &s).is_ok(), "{src}");
+        }
+    }
+
+    #[test]
+    fn huge_values_print_short_in_messages() {
+        for (src, shown) in [
+            ("G[10**300]", "G1e300"),
+            ("M[10**300]", "M1e300"),
+            ("G1 X1 F[0-10**300]", "F-1e300"),
+            ("T[0-10**300]", "T-1e300"),
+            ("X#[10**300]", "parameter number 1e300"),
+            ("X[ln[0-10**300]]", "LN of -1e300"),
+            ("G1 X1 F100\nG81 X1 Z-1 R1 L[0-10**300]", "L-1e300"),
+            ("G1 X1 F100\nG10 L2 P[10**300]", "P1e300"),
+            ("G1 X1 F100\nG2 X2 Y0 P[0-10**300] I1", "P-1e300"),
+            ("G1 X1 F100\nG2 X3 Y0 P[10**300] I1", "sweeping 1e300 turns"),
+        ] {
+            let e = err(&format!("{src}\n"));
+            assert!(e.contains(shown) && e.len() < 200, "{src}: {e}");
         }
     }
 

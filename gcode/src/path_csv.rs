@@ -74,7 +74,10 @@ pub fn parse(text: &str) -> Result<Vec<PathPoint>> {
                 let v = num(3, "feed")?;
                 let cap = FeedMmPerMin::from_f64(v);
                 if !cap.within_limits() {
-                    bail!("line {line}: feed {v} outside [0, 1e6] mm/min");
+                    bail!(
+                        "line {line}: feed {} outside [0, 1e6] mm/min",
+                        crate::text::short(v)
+                    );
                 }
                 Some(cap)
             }
