@@ -11,6 +11,8 @@ use std::f64::consts::TAU;
 
 use anyhow::{bail, Result};
 
+use crate::text::short;
+
 /// Which plane an arc lies in: the indices of its first and second axis and
 /// of the axis normal to it (G17: X Y, Z; G18: Z X, Y; G19: Y Z, X, so that
 /// G2 is clockwise seen from the positive normal axis, as in RS274/NGC).
@@ -68,8 +70,9 @@ pub fn centre_in_plane(
             let half = d / 2.0;
             if r.abs() < half * (1.0 - 1e-9) {
                 bail!(
-                    "arc radius {} mm is shorter than half the chord ({half} mm)",
-                    r.abs()
+                    "arc radius {} mm is shorter than half the chord ({} mm)",
+                    short(r.abs()),
+                    short(half)
                 );
             }
             let h = (r * r - half * half).max(0.0).sqrt();
@@ -101,11 +104,14 @@ pub fn points(
     if !(extra_turns >= 0.0 && extra_turns.fract() == 0.0) {
         bail!(
             "arc turn count {} is not a whole number ≥ 1",
-            extra_turns + 1.0
+            short(extra_turns + 1.0)
         );
     }
     if !(tolerance_mm.is_finite() && tolerance_mm > 0.0) {
-        bail!("chord tolerance {tolerance_mm} mm must be positive");
+        bail!(
+            "chord tolerance {} mm must be positive",
+            short(tolerance_mm)
+        );
     }
     let (a, b, n) = plane.axes();
     let (sa, sb, ea, eb) = (start[a], start[b], end[a], end[b]);
@@ -119,7 +125,11 @@ pub fn points(
         bail!("arc centre is at its start point");
     }
     if (r0 - r1).abs() > 0.002f64.max(1e-3 * r0) {
-        bail!("arc radius differs at start ({r0:.4} mm) and end ({r1:.4} mm)");
+        bail!(
+            "arc radius differs at start ({} mm) and end ({} mm)",
+            short(r0),
+            short(r1)
+        );
     }
     let a0 = (sb - cb).atan2(sa - ca);
     let a1 = (eb - cb).atan2(ea - ca);
@@ -140,9 +150,11 @@ pub fn points(
     let steps_f = (sweep / max_step).ceil().max(1.0);
     if steps_f.is_nan() || steps_f > max_points as f64 {
         bail!(
-            "arc of radius {r:.6} mm sweeping {:.1} turns needs {} points within the chord tolerance {tolerance_mm} mm: more than gcode.limits.max_points allows here ({max_points})",
-            sweep / TAU,
-            if steps_f.is_finite() { format!("{steps_f:.0}") } else { "unboundedly many".into() }
+            "arc of radius {} mm sweeping {} turns needs {} points within the chord tolerance {} mm: more than gcode.limits.max_points allows here ({max_points})",
+            short(r),
+            short(sweep / TAU),
+            if steps_f.is_finite() { short(steps_f.round()).to_string() } else { "unboundedly many".into() },
+            short(tolerance_mm)
         );
     }
     let steps = steps_f as usize;

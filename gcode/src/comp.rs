@@ -30,6 +30,7 @@ use anyhow::{bail, Result};
 
 use super::arc::{centre_in_plane, Centre, Plane};
 use super::sink::Sink;
+use super::text::short;
 
 /// Compensation side.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -166,7 +167,11 @@ impl Comp {
                 return Ok(());
             }
             if d <= self.radius {
-                bail!("line {line}: the cutter compensation entry move ({d:.4} mm) is not longer than the tool radius ({:.4} mm)", self.radius);
+                bail!(
+                    "line {line}: the cutter compensation entry move ({} mm) is not longer than the tool radius ({} mm)",
+                    short(d),
+                    short(self.radius)
+                );
             }
             let n = self.normal(unit([to[0] - from[0], to[1] - from[1]]));
             self.pending = Some(Elem {
@@ -237,8 +242,9 @@ impl Comp {
         let dr = if inside { -self.radius } else { self.radius };
         if r0 + dr <= 0.0 || r1 + dr <= 0.0 {
             bail!(
-                "line {line}: the tool (radius {:.4} mm) does not fit inside the arc (radius {r0:.4} mm)",
-                self.radius
+                "line {line}: the tool (radius {} mm) does not fit inside the arc (radius {} mm)",
+                short(self.radius),
+                short(r0)
             );
         }
         let at = |p: [f64; 3], r: f64| {
@@ -306,9 +312,9 @@ impl Comp {
             })?;
             if !within(&prev, p, true) || !within(&e, p, false) {
                 bail!(
-                    "line {}: cutter gouging: the inside corner before this move needs more room than the moves around it give (tool radius {:.4} mm)",
+                    "line {}: cutter gouging: the inside corner before this move needs more room than the moves around it give (tool radius {} mm)",
                     e.line,
-                    self.radius
+                    short(self.radius)
                 );
             }
             prev.to = [p[0], p[1], prev.to[2]];

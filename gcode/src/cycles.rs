@@ -36,6 +36,7 @@
 use anyhow::{anyhow, bail, Result};
 
 use super::interp::{Blk, Interp, AXES, NEEDS_MACHINE};
+use super::text::short;
 
 /// Run the cycle `code` (G-code × 10) of block `b`.
 pub fn run(it: &mut Interp, b: &Blk, code: u32) -> Result<()> {
@@ -57,7 +58,10 @@ pub fn run(it: &mut Interp, b: &Blk, code: u32) -> Result<()> {
     let repeats = match b.get('L') {
         None => 1,
         Some(l) if l >= 0.0 && l.fract() == 0.0 && l <= 1e9 => l as u64,
-        Some(l) => bail!("line {line}: L{l} is not a whole number of repeats"),
+        Some(l) => bail!(
+            "line {line}: L{} is not a whole number of repeats",
+            short(l)
+        ),
     };
     if repeats as f64 * 8.0 > it.out.room() as f64 {
         it.out

@@ -27,6 +27,7 @@ use super::nurbs_block::{self, Collector, Collector6};
 use super::parse::{Keyword, Label, Stmt};
 use super::program::{File, Jump, Opened};
 use super::sink::Sink;
+use super::text::short;
 use super::{ExtraAxes, GcodeSettings};
 
 /// Axis letters in parameter order.
@@ -1109,6 +1110,12 @@ impl Interp {
         assigns: &[(super::expr::ParamRef, super::expr::Expr)],
         abort: Option<&str>,
     ) -> Result<bool> {
+        // A line after the program's end that did not parse, reached after
+        // all (a subprogram defined after M30).
+        let file = self.frames.last().map_or(0, |f| f.file);
+        if let Some(e) = self.files.get(file).and_then(|f| f.unparsed.get(&line)) {
+            bail!("{e}");
+        }
         if let Some(msg) = abort {
             bail!("line {line}: the program aborts here: (abort, {msg})");
         }
@@ -1131,23 +1138,23 @@ impl Interp {
                 'G' => {
                     let t = (v * 10.0).round();
                     if (v * 10.0 - t).abs() > 1e-6 || !(0.0..=9999.0).contains(&t) {
-                        bail!("line {line}: G{v} is not a G-code");
+                        bail!("line {line}: G{} is not a G-code", short(v));
                     }
                     let (major, minor) = (t as u32 / 10, t as u32 % 10);
                     if b.g.contains(&(major, minor)) {
-                        bail!("line {line}: G{v} appears twice");
+                        bail!("line {line}: G{} appears twice", short(v));
                     }
                     b.g.push((major, minor));
                 }
                 'M' => {
                     if v.fract() != 0.0 || !(0.0..=1000.0).contains(&v) {
-                        bail!("line {line}: M{v} is not an M-code");
+                        bail!("line {line}: M{} is not an M-code", short(v));
                     }
                     b.m.push(v as u32);
                 }
                 '$' => {
                     if v.fract() != 0.0 || v < -1.0 {
-                        bail!("line {line}: spindle ${v} is not a spindle number");
+                        bail!("line {line}: spindle ${} is not a spindle number", short(v));
                     }
                 }
                 '@' | '^' => {
@@ -1208,7 +1215,7 @@ impl Interp {
                 b.line
             );
         }
-        Ok(())
+        check_modal_groups(b)
     }
 
     fn execute(&mut self, b: &Blk) -> Result<bool> {
@@ -1292,13 +1299,13 @@ impl Interp {
         }
         if let Some(f) = b.get('F') {
             if f < 0.0 {
-                bail!("line {line}: feed F{f} is negative");
+                bail!("line {line}: feed F{} is negative", short(f));
             }
             self.feed = Some(f);
         }
         if let Some(s) = b.get('S') {
             if s < 0.0 {
-                bail!("line {line}: spindle speed S{s} is negative");
+                bail!("line {line}: spindle speed S{} is negative", short(s));
             }
             self.rpm = s;
             if !b.m.iter().any(|m| matches!(m, 3..=5)) {
@@ -1307,7 +1314,7 @@ impl Interp {
         }
         if let Some(t) = b.get('T') {
             if t < 0.0 || t.fract() != 0.0 {
-                bail!("line {line}: tool T{t} is not a whole number ≥ 0");
+                bail!("line {line}: tool T{} is not a whole number ≥ 0", short(t));
             }
             self.selected_tool = t as u32;
         }
@@ -1319,7 +1326,7 @@ impl Interp {
                         .get('Q')
                         .ok_or_else(|| anyhow!("line {line}: M61 needs a Q word"))?;
                     if q < 0.0 || q.fract() != 0.0 {
-                        bail!("line {line}: M61 Q{q} is not a tool number");
+                        bail!("line {line}: M61 Q{} is not a tool number", short(q));
                     }
                     self.current_tool = q as u32;
                     self.selected_tool = q as u32;
@@ -1397,7 +1404,7 @@ impl Interp {
                 } else {
                     let t = match b.get('D') {
                         Some(d) if d >= 0.0 && d.fract() == 0.0 => d as u32,
-                        Some(d) => bail!("line {line}: D{d} is not a tool number"),
+                        Some(d) => bail!("line {line}: D{} is not a tool number", short(d)),
                         None => self.current_tool,
                     };
                     match self.tools.get(&t) {
@@ -1421,7 +1428,7 @@ impl Interp {
         if b.has_g(43, 0) || b.has_g(43, 2) {
             let t = match b.get('H') {
                 Some(h) if h >= 0.0 && h.fract() == 0.0 => h as u32,
-                Some(h) => bail!("line {line}: H{h} is not a tool number"),
+                Some(h) => bail!("line {line}: H{} is not a tool number", short(h)),
                 None => self.current_tool,
             };
             let len = match self.tools.get(&t) {
@@ -1680,12 +1687,16 @@ impl Interp {
             .get('P')
             .ok_or_else(|| anyhow!("line {line}: G10 needs a P word"))?;
         if p.fract() != 0.0 || p < 0.0 {
-            bail!("line {line}: G10 P{p} is not a whole number");
+            bail!("line {line}: G10 P{} is not a whole number", short(p));
         }
         match l as u32 {
             2 | 20 => {
                 if !(0.0..=9.0).contains(&p) {
-                    bail!("line {line}: G10 L{l} P{p}: coordinate systems are P0 (active) to P9");
+                    bail!(
+                        "line {line}: G10 L{} P{}: coordinate systems are P0 (active) to P9",
+                        short(l),
+                        short(p)
+                    );
                 }
                 if b.get('R').is_some_and(|r| r != 0.0) {
                     bail!("line {line}: coordinate-system rotation (G10 R) is not supported");
@@ -1724,7 +1735,7 @@ impl Interp {
                     };
                 }
             }
-            _ => bail!("line {line}: G10 L{l} is not supported"),
+            _ => bail!("line {line}: G10 L{} is not supported", short(l)),
         }
         Ok(())
     }
@@ -1863,6 +1874,7 @@ impl Interp {
                 self.spline_prev = None;
             }
             Motion::Arc(cw) => {
+                self.check_arc_words(b)?;
                 self.check_extra_axes(&target, line)?;
                 let (a, bb, _) = self.plane.axes();
                 let centre = if let Some(r) = b.get('R') {
@@ -1885,7 +1897,7 @@ impl Interp {
                 let turns = match b.get('P') {
                     None => 0.0,
                     Some(p) if p >= 1.0 && p.fract() == 0.0 => p - 1.0,
-                    Some(p) => bail!("line {line}: arc P{p} must be a whole number ≥ 1"),
+                    Some(p) => bail!("line {line}: arc P{} must be a whole number ≥ 1", short(p)),
                 };
                 let to = [target[0], target[1], target[2]];
                 // Length for inverse-time feed: estimated from the chord and
@@ -1950,6 +1962,27 @@ impl Interp {
                 self.comp_check(line, "a canned cycle")?;
                 cycles::run(self, b, code)?;
             }
+        }
+        Ok(())
+    }
+
+    /// The centre words of a G2/G3 block, as rs274ngc's `convert_arc`
+    /// checks them: R or offsets, not both, and no offset along the axis
+    /// normal to the plane.
+    fn check_arc_words(&self, b: &Blk) -> Result<()> {
+        let line = b.line;
+        let ijk = ['I', 'J', 'K'].map(|c| b.get(c).is_some());
+        if b.get('R').is_some() && ijk.iter().any(|&w| w) {
+            bail!("line {line}: mixed radius-ijk format for arc (R with I, J or K)");
+        }
+        let (_, _, normal) = self.plane.axes();
+        if ijk[normal] {
+            let (word, plane) = match self.plane {
+                Plane::Xy => ('K', "xy (G17)"),
+                Plane::Zx => ('J', "xz (G18)"),
+                Plane::Yz => ('I', "yz (G19)"),
+            };
+            bail!("line {line}: {word} word given for arc in {plane} plane");
         }
         Ok(())
     }
@@ -2077,7 +2110,214 @@ impl Interp {
     }
 }
 
+/// rs274ngc's modal group of G`g`.`m` (`interp_array.cc`, `gees`), for
+/// the codes it knows: at most one code of a group in a block. G80 is in
+/// the motion group but never conflicts there (rs274ngc drops it beside
+/// another motion code; [`Interp::execute`] refuses that pair by name).
+fn g_group(g: u32, m: u32) -> Option<(u8, &'static str)> {
+    Some(match (g, m) {
+        (4 | 10 | 52 | 53 | 92, 0) | (28 | 30, 0 | 1) | (5 | 6, 3) => (0, "non-modal"),
+        (0..=3 | 33 | 73 | 74 | 76 | 70 | 80..=89, 0)
+        | (5 | 6, 0..=2)
+        | (33, 1)
+        | (38, 2..=5)
+        | (71 | 72, 0..=2) => (1, "motion"),
+        (17..=19, 0 | 1) => (2, "plane"),
+        (90 | 91, 0) => (3, "distance mode"),
+        (90 | 91, 1) => (4, "arc distance mode"),
+        (93..=95, 0) => (5, "feed mode"),
+        (20 | 21, 0) => (6, "units"),
+        (40, 0) | (41 | 42, 0 | 1) => (7, "cutter compensation"),
+        (43, 0..=2) | (49, 0) => (8, "tool length offset"),
+        (98 | 99, 0) => (10, "canned-cycle return"),
+        (54..=58, 0) | (59, 0..=3) => (12, "coordinate system"),
+        (61, 0 | 1) | (64, 0) => (13, "path control"),
+        (96 | 97, 0) => (14, "spindle speed mode"),
+        (7 | 8, 0) => (15, "lathe diameter mode"),
+        (92, 1..=3) => (16, "G92 offset"),
+        _ => return None,
+    })
+}
+
+/// rs274ngc's modal group of M`m` (`interp_array.cc`, `ems`).
+fn m_group(m: u32) -> Option<(u8, &'static str)> {
+    Some(match m {
+        0..=2 | 30 | 60 | 99 => (4, "stopping"),
+        62..=68 => (5, "digital and analog I/O"),
+        6 | 61 => (6, "tool change"),
+        3..=5 | 19 | 70..=73 => (7, "spindle and modal state"),
+        7..=9 => (8, "coolant"),
+        48..=53 => (9, "override switches"),
+        100..=199 => (10, "user-defined"),
+        _ => return None,
+    })
+}
+
+/// Most M codes in one block (rs274ngc's `MAX_EMS`).
+const MAX_M_CODES: usize = 4;
+
+/// At most one G code and one M code of each modal group, and at most
+/// [`MAX_M_CODES`] M codes, in a block: with rs274ngc's messages
+/// (`read_g`, `read_m`, `check_m_codes`).
+fn check_modal_groups(b: &Blk) -> Result<()> {
+    let line = b.line;
+    let g_name = |(g, m): (u32, u32)| {
+        if m == 0 {
+            format!("G{g}")
+        } else {
+            format!("G{g}.{m}")
+        }
+    };
+    for (k, &code) in b.g.iter().enumerate() {
+        if code == (80, 0) {
+            continue;
+        }
+        let Some((group, name)) = g_group(code.0, code.1) else {
+            continue;
+        };
+        let other = b.g[..k]
+            .iter()
+            .find(|&&o| o != (80, 0) && g_group(o.0, o.1).is_some_and(|(g, _)| g == group));
+        if let Some(&o) = other {
+            bail!(
+                "line {line}: two G-codes used from same modal group ({name}): {} and {}",
+                g_name(o),
+                g_name(code)
+            );
+        }
+    }
+    if b.m.len() > MAX_M_CODES {
+        bail!(
+            "line {line}: too many M-codes on line ({}; at most {MAX_M_CODES})",
+            b.m.len()
+        );
+    }
+    for (k, &code) in b.m.iter().enumerate() {
+        let Some((group, name)) = m_group(code) else {
+            continue;
+        };
+        let other = b.m[..k]
+            .iter()
+            .find(|&&o| m_group(o).is_some_and(|(g, _)| g == group));
+        if let Some(&o) = other {
+            bail!("line {line}: two M-codes used from same modal group ({name}): M{o} and M{code}");
+        }
+    }
+    Ok(())
+}
+
 /// The directory of a program file, for its subroutine files.
 pub fn program_dir(path: &Path) -> Option<PathBuf> {
     path.parent().map(Path::to_path_buf)
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::{parse, GcodeSettings};
+
+    fn err(src: &str) -> String {
+        match parse("t", src, &GcodeSettings::default()) {
+            Ok(_) => panic!("{src:?} was accepted"),
+            Err(e) => format!("{e:#}"),
+        }
+    }
+
+    #[test]
+    fn two_codes_of_one_modal_group_are_refused() {
+        for src in [
+            "G20 G21",
+            "G90 G91",
+            "G90.1 G91.1",
+            "G54 G55",
+            "G54 G59.3",
+            "G93 G94",
+            "G98 G99",
+            "G17 G18",
+            "G40 G41",
+            "G43 G49",
+            "G61 G64",
+            "G96 G97 S100",
+            "G7 G8",
+            "G0 G1 X1",
+            "G1 G2 X1 R1",
+            "G1 G81 X1 Z-1 R1",
+            "G4 G10 L2 P1 X0",
+            "G28 G53 X0",
+            "G92.1 G92.2",
+        ] {
+            let e = err(&format!("G1 X1 F100\n{src}\n"));
+            assert!(
+                e.contains("line 2: two G-codes used from same modal group"),
+                "{src}: {e}"
+            );
+        }
+        for src in [
+            "M3 M4",
+            "M3 M5",
+            "M7 M8",
+            "M0 M2",
+            "M2 M30",
+            "M6 M61 Q1",
+            "M48 M49",
+            "M70 M3",
+        ] {
+            let e = err(&format!("G1 X1 F100\n{src}\n"));
+            assert!(
+                e.contains("line 2: two M-codes used from same modal group"),
+                "{src}: {e}"
+            );
+        }
+        let e = err("G1 X1 F100\nM3 M7 M6 M0 M48\n");
+        assert!(e.contains("line 2: too many M-codes"), "{e}");
+    }
+
+    #[test]
+    fn codes_of_different_groups_share_a_block() {
+        let s = GcodeSettings::default();
+        for src in [
+            "G21 G90 G17 G94 G54 G40 G49 G64 G98 G1 X1 F100\n",
+            "G1 X1 F100\nM3 S1000 M8 M6\n",
+            "G1 X1 F100\nG53 G0 Z0\n",
+            "G1 X1 F100\nG4 P0 G1 X2\n",
+        ] {
+            assert!(parse("t", src, &s).is_ok(), "{src}");
+        }
+    }
+
+    #[test]
+    fn huge_values_print_short_in_messages() {
+        for (src, shown) in [
+            ("G[10**300]", "G1e300"),
+            ("M[10**300]", "M1e300"),
+            ("G1 X1 F[0-10**300]", "F-1e300"),
+            ("T[0-10**300]", "T-1e300"),
+            ("X#[10**300]", "parameter number 1e300"),
+            ("X[ln[0-10**300]]", "LN of -1e300"),
+            ("G1 X1 F100\nG81 X1 Z-1 R1 L[0-10**300]", "L-1e300"),
+            ("G1 X1 F100\nG10 L2 P[10**300]", "P1e300"),
+            ("G1 X1 F100\nG2 X2 Y0 P[0-10**300] I1", "P-1e300"),
+            ("G1 X1 F100\nG2 X3 Y0 P[10**300] I1", "sweeping 1e300 turns"),
+        ] {
+            let e = err(&format!("{src}\n"));
+            assert!(e.contains(shown) && e.len() < 200, "{src}: {e}");
+        }
+    }
+
+    #[test]
+    fn arc_centre_words_are_checked_as_rs274ngc() {
+        let e = err("G1 X1 F100\nG2 X2 Y1 R1 I1\n");
+        assert!(e.contains("line 2: mixed radius-ijk format for arc"), "{e}");
+        let e = err("G1 X1 F100\nG18 G2 X2 Z1 I1 J1\n");
+        assert!(
+            e.contains("line 2: J word given for arc in xz (G18) plane"),
+            "{e}"
+        );
+        let e = err("G1 X1 F100\nG2 X2 Y1 I1 K1\n");
+        assert!(e.contains("line 2: K word given for arc in xy"), "{e}");
+        let e = err("G1 X1 F100\nG19 G2 Y2 Z1 I1 K1\n");
+        assert!(e.contains("line 2: I word given for arc in yz"), "{e}");
+        // The offsets of the plane are fine.
+        let s = GcodeSettings::default();
+        assert!(parse("t", "G1 X1 F100\nG18 G2 X3 Z0 I1 K0\n", &s).is_ok());
+    }
 }

@@ -72,6 +72,7 @@ pub mod program;
 pub mod shapes;
 pub mod sink;
 pub mod state;
+pub mod text;
 pub mod toolpath;
 
 use std::path::{Path, PathBuf};

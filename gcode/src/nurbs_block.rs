@@ -34,6 +34,7 @@ use anyhow::{anyhow, bail, Result};
 
 use super::arc::Plane;
 use crate::nurbs::Nurbs;
+use crate::text::short;
 
 /// Control points gathered between G5.2 and G5.3.
 pub struct Collector {
@@ -77,7 +78,7 @@ impl Collector {
         self.order_from(l, line)?;
         if let Some(w) = p {
             if !(w.is_finite() && w > 0.0) {
-                bail!("line {line}: NURBS weight P{w} must be positive");
+                bail!("line {line}: NURBS weight P{} must be positive", short(w));
             }
             self.weights[0] = w;
         }
@@ -87,7 +88,10 @@ impl Collector {
     fn order_from(&mut self, l: Option<f64>, line: u32) -> Result<()> {
         if let Some(l) = l {
             if l.fract() != 0.0 || !(1.0..=10.0).contains(&l) {
-                bail!("line {line}: NURBS order L{l} must be a whole number in 1..=10");
+                bail!(
+                    "line {line}: NURBS order L{} must be a whole number in 1..=10",
+                    short(l)
+                );
             }
             if l > 3.0 {
                 self.order = l as usize;
@@ -107,7 +111,7 @@ impl Collector {
         self.order_from(l, line)?;
         let w = p.unwrap_or(1.0);
         if !(w.is_finite() && w > 0.0) {
-            bail!("line {line}: NURBS weight P{w} must be positive");
+            bail!("line {line}: NURBS weight P{} must be positive", short(w));
         }
         self.control.push(point);
         self.weights.push(w);
@@ -165,7 +169,10 @@ impl Collector6 {
     /// A block opened on `line` with order `p`.
     pub fn new(order: f64, line: u32) -> Result<Self> {
         if order.fract() != 0.0 || !(2.0..=10.0).contains(&order) {
-            bail!("line {line}: G6.2 order P{order} must be a whole number in 2..=10");
+            bail!(
+                "line {line}: G6.2 order P{} must be a whole number in 2..=10",
+                short(order)
+            );
         }
         Ok(Collector6 {
             line,
@@ -180,11 +187,14 @@ impl Collector6 {
     /// Returns whether the block is complete.
     pub fn add(&mut self, point: Option<([f64; 3], f64)>, knot: f64, line: u32) -> Result<bool> {
         if !knot.is_finite() || self.knots.last().is_some_and(|&k| knot < k) {
-            bail!("line {line}: G6.2 knot K{knot} is smaller than the knot before it");
+            bail!(
+                "line {line}: G6.2 knot K{} is smaller than the knot before it",
+                short(knot)
+            );
         }
         if let Some((p, w)) = point {
             if !(w.is_finite() && w > 0.0) {
-                bail!("line {line}: G6.2 weight R{w} must be positive");
+                bail!("line {line}: G6.2 weight R{} must be positive", short(w));
             }
             if self.knots.len() > self.control.len() {
                 bail!("line {line}: G6.2 control point after a line with a knot alone");
@@ -266,7 +276,7 @@ fn sample(
     room: usize,
 ) -> Result<Vec<[f64; 3]>> {
     if !(tol.is_finite() && tol > 0.0) {
-        bail!("chord tolerance {tol} mm must be positive");
+        bail!("chord tolerance {} mm must be positive", short(tol));
     }
     let seeds = 4 * spans;
     if seeds > room {

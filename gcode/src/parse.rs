@@ -12,14 +12,20 @@
 //! precedence levels ([`crate::expr`]). Numbers have no exponent (in
 //! rs274ngc `E` is a word letter), so `1e3` is the number 1 then an `E` word.
 //!
+//! An expression is read into postfix order ([`crate::expr::Op`]): operators
+//! wait on a small stack by precedence, so a chain of any length reads in a
+//! loop. Only nesting (brackets, signs, `#`, function arguments) recurses,
+//! and it is refused beyond a fixed depth (`MAX_DEPTH`) with an error
+//! naming the line.
+//!
 //! Why not a lexing crate: the `gcode` crate (and the others on crates.io at
 //! the time of writing) reads words with literal numbers only; none reads
 //! rs274ngc's brackets, parameters or O-words, and the evaluator has to see
-//! the expression tree anyway.
+//! the expression's structure anyway.
 
 use anyhow::{anyhow, bail, Result};
 
-use super::expr::{BinOp, Expr, Func, ParamRef};
+use super::expr::{BinOp, Expr, Func, Op, ParamRef};
 
 /// An O-word's label: `o100` or `o<name>`.
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
@@ -343,7 +349,9 @@ impl Cursor<'_> {
         let mut args = Vec::new();
         while self.peek() == Some(b'[') {
             self.i += 1;
-            args.push(self.expression(0)?);
+            let mut out = Vec::new();
+            self.expression(0, &mut out)?;
+            args.push(Expr::from_ops(out));
         }
         if self.i < self.s.len() {
             return Err(self.err(&format!("unexpected text after {label} {word}")));
@@ -382,60 +390,86 @@ impl Cursor<'_> {
         })
     }
 
+    /// The target of an assignment, after its `#`.
     fn param_ref(&mut self) -> Result<ParamRef> {
-        self.param_ref_depth(0)
-    }
-
-    fn param_ref_depth(&mut self, depth: usize) -> Result<ParamRef> {
-        if self.eat(b'<') {
-            let start = self.i;
-            while self.peek().is_some_and(|b| b != b'>') {
-                self.i += 1;
-            }
-            let name = String::from_utf8_lossy(&self.s[start..self.i]).into_owned();
-            if !self.eat(b'>') || name.is_empty() {
-                return Err(self.err("parameter name not closed by '>'"));
-            }
+        if let Some(name) = self.param_name()? {
             return Ok(ParamRef::Named(name));
         }
-        Ok(ParamRef::Number(Box::new(
-            self.real_value_depth(depth + 1)?,
-        )))
+        let mut out = Vec::new();
+        self.real_value_depth(1, &mut out)?;
+        Ok(ParamRef::Number(Expr::from_ops(out)))
+    }
+
+    /// `<name>` after a `#`, if there is one.
+    fn param_name(&mut self) -> Result<Option<String>> {
+        if !self.eat(b'<') {
+            return Ok(None);
+        }
+        let start = self.i;
+        while self.peek().is_some_and(|b| b != b'>') {
+            self.i += 1;
+        }
+        let name = String::from_utf8_lossy(&self.s[start..self.i]).into_owned();
+        if !self.eat(b'>') || name.is_empty() {
+            return Err(self.err("parameter name not closed by '>'"));
+        }
+        Ok(Some(name))
+    }
+
+    /// A parameter's value, after its `#`.
+    fn param_value(&mut self, depth: usize, out: &mut Vec<Op>) -> Result<()> {
+        if let Some(name) = self.param_name()? {
+            out.push(Op::Named(name));
+            return Ok(());
+        }
+        self.real_value_depth(depth + 1, out)?;
+        out.push(Op::Param);
+        Ok(())
     }
 
     fn real_value(&mut self) -> Result<Expr> {
-        self.real_value_depth(0)
+        let mut out = Vec::new();
+        self.real_value_depth(0, &mut out)?;
+        Ok(Expr::from_ops(out))
     }
 
-    fn real_value_depth(&mut self, depth: usize) -> Result<Expr> {
+    /// One real value, its postfix steps appended to `out`. Recurses only
+    /// into brackets, signs, `#` and function arguments, at most
+    /// [`MAX_DEPTH`] deep.
+    fn real_value_depth(&mut self, depth: usize, out: &mut Vec<Op>) -> Result<()> {
         if depth > MAX_DEPTH {
             return Err(self.err("value nested too deeply"));
         }
         match self.peek() {
             Some(b'[') => {
                 self.i += 1;
-                self.expression(depth + 1)
+                self.expression(depth + 1, out)
             }
             Some(b'#') => {
                 self.i += 1;
-                Ok(Expr::Param(Box::new(self.param_ref_depth(depth + 1)?)))
+                self.param_value(depth + 1, out)
             }
             Some(b'-') => {
                 self.i += 1;
-                Ok(Expr::Neg(Box::new(self.real_value_depth(depth + 1)?)))
+                self.real_value_depth(depth + 1, out)?;
+                out.push(Op::Neg);
+                Ok(())
             }
             Some(b'+') => {
                 self.i += 1;
-                self.real_value_depth(depth + 1)
+                self.real_value_depth(depth + 1, out)
             }
-            Some(b) if b.is_ascii_lowercase() => self.function(depth + 1),
-            Some(b) if b.is_ascii_digit() || b == b'.' => self.number(),
+            Some(b) if b.is_ascii_lowercase() => self.function(depth + 1, out),
+            Some(b) if b.is_ascii_digit() || b == b'.' => {
+                out.push(Op::Num(self.number()?));
+                Ok(())
+            }
             Some(b) => Err(self.err(&format!("a value expected, not {:?}", b as char))),
             None => Err(self.err("a value expected at the end of the line")),
         }
     }
 
-    fn number(&mut self) -> Result<Expr> {
+    fn number(&mut self) -> Result<f64> {
         let start = self.i;
         let mut dot = false;
         while let Some(b) = self.peek() {
@@ -452,12 +486,10 @@ impl Cursor<'_> {
         if t == "." {
             return Err(self.err("a number expected"));
         }
-        t.parse::<f64>()
-            .map(Expr::Num)
-            .map_err(|_| self.err("a number expected"))
+        t.parse::<f64>().map_err(|_| self.err("a number expected"))
     }
 
-    fn function(&mut self, depth: usize) -> Result<Expr> {
+    fn function(&mut self, depth: usize, out: &mut Vec<Op>) -> Result<()> {
         const FUNCS: [(&str, Func); 14] = [
             ("abs", Func::Abs),
             ("acos", Func::Acos),
@@ -489,24 +521,26 @@ impl Cursor<'_> {
             if !self.eat(b'#') {
                 return Err(self.err("exists[] takes a #<named parameter>"));
             }
-            let p = self.param_ref_depth(depth)?;
-            let ParamRef::Named(n) = p else {
+            let Some(n) = self.param_name()? else {
                 return Err(self.err("exists[] takes a #<named parameter>"));
             };
             if !self.eat(b']') {
                 return Err(self.err("exists[#<name>] not closed by ']'"));
             }
-            return Ok(Expr::Exists(n));
+            out.push(Op::Exists(n));
+            return Ok(());
         }
-        let a = self.expression(depth)?;
+        self.expression(depth, out)?;
         if f == Func::Atan {
             if !self.eat(b'/') || !self.eat(b'[') {
                 return Err(self.err("atan needs two arguments: atan[y]/[x]"));
             }
-            let b = self.expression(depth)?;
-            return Ok(Expr::Atan2(Box::new(a), Box::new(b)));
+            self.expression(depth, out)?;
+            out.push(Op::Atan2);
+        } else {
+            out.push(Op::Call(f));
         }
-        Ok(Expr::Call(f, Box::new(a)))
+        Ok(())
     }
 
     fn binop(&mut self) -> Option<BinOp> {
@@ -536,14 +570,17 @@ impl Cursor<'_> {
         None
     }
 
-    /// An expression after its `[`, up to and including its `]`: operands and
-    /// operators, reduced by precedence, left to right within a level (as
-    /// LinuxCNC's `read_real_expression`).
-    fn expression(&mut self, depth: usize) -> Result<Expr> {
+    /// An expression after its `[`, up to and including its `]`, its
+    /// postfix steps appended to `out`: operators are applied by
+    /// precedence, left to right within a level (as LinuxCNC's
+    /// `read_real_expression`). Operators wait on a stack of rising
+    /// precedence, so it never holds more than one per level however long
+    /// the expression is.
+    fn expression(&mut self, depth: usize, out: &mut Vec<Op>) -> Result<()> {
         if depth > MAX_DEPTH {
             return Err(self.err("expression nested too deeply"));
         }
-        let mut values = vec![self.real_value_depth(depth + 1)?];
+        self.real_value_depth(depth + 1, out)?;
         let mut ops: Vec<BinOp> = Vec::new();
         loop {
             if self.eat(b']') {
@@ -553,28 +590,19 @@ impl Cursor<'_> {
                 return Err(self.err("an operator or ']' expected"));
             };
             while let Some(&top) = ops.last() {
-                if top.precedence() >= op.precedence() {
-                    reduce(&mut values, &mut ops);
-                } else {
+                if top.precedence() < op.precedence() {
                     break;
                 }
+                out.push(Op::Bin(top));
+                ops.pop();
             }
             ops.push(op);
-            values.push(self.real_value_depth(depth + 1)?);
-            if ops.len() > 4 * MAX_DEPTH {
-                return Err(self.err("expression too long"));
-            }
+            self.real_value_depth(depth + 1, out)?;
         }
-        while !ops.is_empty() {
-            reduce(&mut values, &mut ops);
+        while let Some(op) = ops.pop() {
+            out.push(Op::Bin(op));
         }
-        values.pop().ok_or_else(|| self.err("empty expression"))
-    }
-}
-
-fn reduce(values: &mut Vec<Expr>, ops: &mut Vec<BinOp>) {
-    if let (Some(op), Some(b), Some(a)) = (ops.pop(), values.pop(), values.pop()) {
-        values.push(Expr::Bin(op, Box::new(a), Box::new(b)));
+        Ok(())
     }
 }
 
@@ -594,8 +622,8 @@ mod tests {
         let w = words("n10 g 1 x 1.5 (a comment) Y-2 ; rest");
         assert_eq!(w.len(), 3);
         assert_eq!(w[1].letter, 'X');
-        assert_eq!(w[1].value, Expr::Num(1.5));
-        assert_eq!(w[2].value, Expr::Neg(Box::new(Expr::Num(2.0))));
+        assert_eq!(w[1].value, Expr::number(1.5));
+        assert_eq!(w[2].value.ops(), [Op::Num(2.0), Op::Neg]);
         assert!(line("G1 (open", 3)
             .unwrap_err()
             .to_string()
@@ -628,11 +656,17 @@ mod tests {
             panic!()
         };
         assert_eq!(assigns.len(), 2);
-        // 1 + (2*3)
-        let Expr::Bin(BinOp::Add, _, r) = &assigns[0].1 else {
-            panic!("{:?}", assigns[0].1)
-        };
-        assert!(matches!(**r, Expr::Bin(BinOp::Mul, _, _)));
+        // 1 + (2*3), in postfix.
+        assert_eq!(
+            assigns[0].1.ops(),
+            [
+                Op::Num(1.0),
+                Op::Num(2.0),
+                Op::Num(3.0),
+                Op::Bin(BinOp::Mul),
+                Op::Bin(BinOp::Add)
+            ]
+        );
         assert!(line("X[1+]", 1).is_err());
         assert!(line("X[1", 1).is_err());
         assert!(line(

@@ -4,6 +4,13 @@
 //! searching the file at run time; we find them once, before running, so a
 //! mismatched or unclosed structure is an error naming its line even in a
 //! branch that never runs).
+//!
+//! Where the program ends, reading stops being strict. After a closing `%`
+//! nothing is read (LinuxCNC ignores the rest of the file). After an M2 or
+//! M30 outside any O-word structure, lines are still read, because Fanuc and
+//! Mach3 programs define their subprograms there; but a line that does not
+//! parse is kept as an empty block whose error is raised only if the line
+//! runs ([`File::unparsed`]), since rs274ngc never reads it otherwise.
 
 use std::collections::HashMap;
 use std::path::PathBuf;
@@ -11,6 +18,7 @@ use std::path::PathBuf;
 use anyhow::{bail, Result};
 
 use super::parse::{self, Keyword, Label, Line, Stmt};
+use super::text;
 
 /// Where a control line jumps.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -42,15 +50,40 @@ pub struct File {
     pub jumps: HashMap<usize, Jump>,
     /// Subroutines defined here: label → index of the `sub` line.
     pub subs: HashMap<Label, usize>,
+    /// Lines after the program's end that do not parse: line number → the
+    /// error, raised when the line runs (it is an empty block in `lines`).
+    pub unparsed: HashMap<u32, String>,
 }
 
 impl File {
     /// Parse `src` and find its structure.
     pub fn parse(src: &str, path: Option<PathBuf>) -> Result<Self> {
         let mut lines = Vec::new();
-        for (i, text) in src.lines().enumerate() {
+        let mut unparsed = HashMap::new();
+        let mut end = EndOfProgram::default();
+        for (i, text) in text::lines(text::strip_bom(src)).enumerate() {
             let number = u32::try_from(i + 1).unwrap_or(u32::MAX);
-            lines.push(parse::line(text, number)?);
+            let line = match parse::line(text, number) {
+                Ok(l) => l,
+                Err(e) if end.passed => {
+                    unparsed.insert(number, format!("{e:#}"));
+                    Line {
+                        number,
+                        block_delete: false,
+                        stmt: Stmt::Block {
+                            words: Vec::new(),
+                            assigns: Vec::new(),
+                            abort: None,
+                        },
+                    }
+                }
+                Err(e) => return Err(e),
+            };
+            let closing = end.see(&line);
+            lines.push(line);
+            if closing {
+                break;
+            }
         }
         let (jumps, subs) = structure(&lines)?;
         Ok(File {
@@ -58,6 +91,7 @@ impl File {
             lines,
             jumps,
             subs,
+            unparsed,
         })
     }
 
@@ -69,6 +103,7 @@ impl File {
             lines: Vec::new(),
             jumps: HashMap::new(),
             subs: HashMap::new(),
+            unparsed: HashMap::new(),
         }
     }
 
@@ -152,6 +187,77 @@ impl Opened {
     /// No structure is open.
     pub fn closed(&self) -> bool {
         self.open.is_empty()
+    }
+}
+
+/// Where the program ends, followed line by line while reading: the run
+/// loop's rule for `%` (the first one opens the program unless a block came
+/// before it; the next ends it) and M2/M30 outside O-word structures.
+#[derive(Default)]
+struct EndOfProgram {
+    percent: bool,
+    /// A block or O-word seen (not block-deleted).
+    content: bool,
+    /// A block-deleted block seen.
+    deleted: bool,
+    /// Open O-word structures, innermost last.
+    open: Vec<Keyword>,
+    /// Past an M2 or M30, or a `%` that ends the program when block delete
+    /// is off: later lines need not parse.
+    passed: bool,
+}
+
+impl EndOfProgram {
+    /// Follow `line`; `true` when it is a `%` that always ends the program.
+    fn see(&mut self, line: &Line) -> bool {
+        match &line.stmt {
+            Stmt::Percent => {
+                if self.percent || self.content {
+                    return true;
+                }
+                // Only block-deleted lines came before: this `%` ends the
+                // program unless block delete is on.
+                self.passed |= self.deleted;
+                self.percent = true;
+            }
+            Stmt::OWord { keyword, .. } => {
+                self.content = true;
+                match keyword {
+                    Keyword::Sub | Keyword::If | Keyword::Do | Keyword::Repeat => {
+                        self.open.push(*keyword)
+                    }
+                    Keyword::While if self.open.last() != Some(&Keyword::Do) => {
+                        self.open.push(*keyword)
+                    }
+                    Keyword::While
+                    | Keyword::EndSub
+                    | Keyword::EndIf
+                    | Keyword::EndWhile
+                    | Keyword::EndRepeat => {
+                        self.open.pop();
+                    }
+                    _ => {}
+                }
+            }
+            Stmt::Block { words, assigns, .. } => {
+                if line.block_delete {
+                    if !words.is_empty() || !assigns.is_empty() {
+                        self.deleted = true;
+                    }
+                } else {
+                    if !words.is_empty() || !assigns.is_empty() {
+                        self.content = true;
+                    }
+                    let stops = words.iter().any(|w| {
+                        w.letter == 'M' && matches!(w.value.as_number(), Some(2.0 | 30.0))
+                    });
+                    if stops && self.open.is_empty() {
+                        self.passed = true;
+                    }
+                }
+            }
+        }
+        false
     }
 }
 
@@ -333,5 +439,72 @@ mod tests {
             let e = File::parse(src, None).unwrap_err().to_string();
             assert!(e.contains(line), "{src:?}: {e}");
         }
+    }
+
+    fn run(src: &str) -> Result<crate::Program> {
+        crate::run(src, None, &crate::GcodeSettings::default())
+    }
+
+    fn xs(src: &str) -> Vec<f64> {
+        run(src).unwrap().points.iter().map(|p| p[0]).collect()
+    }
+
+    #[test]
+    fn a_byte_order_mark_and_any_line_ends_are_read() {
+        assert_eq!(xs("\u{feff}G1 X1 F100\n"), [0.0, 1.0]);
+        assert_eq!(xs("G1 X1 F100\rG1 X2\rG1 X3"), [0.0, 1.0, 2.0, 3.0]);
+        let p = run("G1 X1 F100\r\nG1 X2\r\rG1 X3\nG1 X4\r").unwrap();
+        assert_eq!(p.lines, [0, 1, 2, 4, 5]);
+        let e = format!("{:#}", run("G1 X1 F100\r\rG1 X2\rX[1/0]\n").unwrap_err());
+        assert!(e.contains("line 4"), "{e}");
+    }
+
+    #[test]
+    fn nothing_after_a_closing_percent_is_read() {
+        let f = File::parse("%\nG1 X1 F100\n%\nnot ((G-code\no1 endif\n", None).unwrap();
+        assert_eq!(f.lines.len(), 3);
+        assert_eq!(xs("G1 X1 F100\n%\n((\n"), [0.0, 1.0]);
+    }
+
+    #[test]
+    fn lines_after_m2_or_m30_fail_only_when_they_run() {
+        // Never run: no error.
+        assert_eq!(xs("G1 X1 F100\nM30\nnot ((G-code\nG1 X[1+]\n"), [0.0, 1.0]);
+        assert_eq!(xs("G1 X1 F100\nM2\nO1000\nM99\n"), [0.0, 1.0]);
+        // A subprogram after M30 is found and runs; its lines that do not
+        // parse fail when they run, naming their line.
+        let sub = "o<s> call\nM30\no<s> sub\nG1 X2 F100\no<s> endsub\n";
+        assert_eq!(xs(sub), [0.0, 2.0]);
+        let bad =
+            "o<s> call\nM30\no<s> sub\nG1 X[1+] F100\no<s> endsub\no<t> sub\n((\no<t> endsub\n";
+        let e = format!("{:#}", run(bad).unwrap_err());
+        assert!(e.contains("line 4"), "{e}");
+        assert!(run(&bad.replace("X[1+]", "X2")).is_ok());
+    }
+
+    #[test]
+    fn an_end_that_may_not_be_reached_keeps_reading_strict() {
+        for (src, line) in [
+            // M30 in a branch, in a sub, block-deleted.
+            ("o1 if [0]\nM30\no1 endif\nX[1+]\n", "line 4"),
+            ("o2 sub\nM2\no2 endsub\nX[1+]\n", "line 4"),
+            ("/M30\nX[1+]\n", "line 2"),
+            // A line before the end is read strictly.
+            ("X[1+]\nM30\n", "line 1"),
+        ] {
+            let e = File::parse(src, None).unwrap_err().to_string();
+            assert!(e.contains(line), "{src:?}: {e}");
+        }
+        // After block-deleted lines only, a `%` ends the program unless
+        // block delete is on: the next lines run only with it on.
+        let src = "/G1 X1 F100\n%\nX[1+]\n";
+        let e = format!("{:#}", run(src).unwrap_err());
+        assert!(e.contains("line 3"), "{e}");
+        let off = crate::GcodeSettings {
+            block_delete: false,
+            ..Default::default()
+        };
+        let p = crate::run(src, None, &off).unwrap();
+        assert_eq!(p.points.len(), 2);
     }
 }

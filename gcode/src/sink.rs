@@ -5,6 +5,8 @@
 
 use anyhow::{bail, Result};
 
+use crate::text::short;
+
 use super::arc::{self, Centre, Plane};
 use crate::toolpath::{MachineEvent, SpindleDir};
 
@@ -189,7 +191,7 @@ impl Sink {
         if n.is_nan() || n > self.room() as f64 {
             bail!(
                 "line {line}: {what} needs {} points; with the {} already made that is more than gcode.limits.max_points = {}",
-                if n.is_finite() { format!("{n:.0}") } else { "unboundedly many".into() },
+                if n.is_finite() { short(n.round()).to_string() } else { "unboundedly many".into() },
                 self.total_points(),
                 self.max_points
             );

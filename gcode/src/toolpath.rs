@@ -115,7 +115,10 @@ impl Toolpath {
                 })?;
             if let Some(c) = cap {
                 if !(c.is_finite() && c > 0.0 && c <= 1e6) {
-                    bail!("line {line}: feed {c} mm/min outside (0, 1e6]");
+                    bail!(
+                        "line {line}: feed {} mm/min outside (0, 1e6]",
+                        crate::text::short(c)
+                    );
                 }
             }
             if last == Some(fixed) {
