@@ -735,6 +735,15 @@ impl<'a> Run<'a> {
         Some(r.min(self.program.len() as u32))
     }
 
+    /// Whether the controller, at this status, had received every command
+    /// of ours up to the path's end, taken them all from its queue, and
+    /// passed every point on from its scheduler's lookahead.
+    fn consumed(&self, st: &Status) -> bool {
+        let after_end = self.end_seq.wrapping_add(1);
+        let received = st.next_seq.wrapping_sub(after_end) as i32 >= 0;
+        received && queued(st, self.credit_size) == 0 && st.points_held == 0
+    }
+
     /// The item with sequence number `seq` and its index.
     fn item(&self, seq: u32) -> Option<(usize, Item)> {
         let k = seq.wrapping_sub(self.first_point_seq) as usize;
@@ -1046,8 +1055,14 @@ impl<'a> Run<'a> {
             }
             DeviceMsg::Status(st) => {
                 self.last_status = st;
+                // The new path's count may end where the previous one's did
+                // (statuses can miss every count between): a status with
+                // every command of ours taken and the lookahead empty also
+                // says it began, since the controller takes nothing after a
+                // path's first point until that point is in the planner.
+                let consumed = self.consumed(&st);
                 if let Some(g) = self.segment.as_mut() {
-                    if st.point_reached != g.stale {
+                    if st.point_reached != g.stale || consumed {
                         g.begun = true;
                     }
                 }
@@ -1369,6 +1384,44 @@ mod tests {
         assert_eq!(r.reached(&new), Some(3));
         let fresh = Run::new(&p, &handshake(Status::default()), &o);
         assert_eq!(fresh.reached(&Status::default()), Some(0));
+    }
+
+    #[test]
+    fn a_path_after_a_machine_command_ending_at_the_previous_count_is_seen_to_begin() {
+        let dir = std::env::temp_dir().join(format!("sender-stream-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("dwell.ngc");
+        std::fs::write(&f, "G21 G90\nG1 X1 F1000\nG4 P0.1\nG1 X2\n").unwrap();
+        let p = crate::program::load(&f.to_string_lossy(), &SimConfig::default()).unwrap();
+        std::fs::remove_dir_all(&dir).ok();
+        let o = Options::new(crate::program::scheduler_config(3000.0, 60.0).unwrap());
+        let mut r = run(&p, &o);
+        r.end_seq = 11 + r.items.len() as u32;
+        // The first path ends at count 2 (start and X1), the dwell applies.
+        let applied = DeviceMsg::Applied {
+            seq: 13,
+            cmd: link::MachineCmd::Dwell { ms: 100 },
+            point: 2,
+            tick: 0,
+        };
+        r.on_message(&applied, None).unwrap();
+        let waiting = Status {
+            point_reached: 2,
+            next_seq: r.end_seq + 1,
+            window_end: r.end_seq + 1 + CMD_CREDIT - 1,
+            points_held: 1,
+            ..Status::default()
+        };
+        r.on_message(&DeviceMsg::Status(waiting), None).unwrap();
+        assert_eq!(r.reached(&waiting), Some(2), "the dwell runs");
+        // The second path (X1 again, X2) also ends at count 2.
+        let done = Status {
+            points_held: 0,
+            window_end: r.end_seq + 1 + CMD_CREDIT,
+            ..waiting
+        };
+        r.on_message(&DeviceMsg::Status(done), None).unwrap();
+        assert_eq!(r.reached(&done), Some(3));
     }
 
     #[test]

@@ -652,3 +652,78 @@ fn spindle_and_coolant_words_take_effect_in_order_at_their_points() {
     let text = sender::cli::summary_text(&o).join("\n");
     assert!(text.contains("5 spindle/coolant commands sent"), "{text}");
 }
+
+/// Stops the run once `limit` has passed: a run that never ends shows as
+/// a user stop instead of a hung test.
+struct Deadline {
+    limit: Duration,
+    fired: bool,
+}
+
+impl Actions for Deadline {
+    fn poll(&mut self, elapsed: Duration, _: u32) -> Vec<Action> {
+        if elapsed > self.limit && !self.fired {
+            self.fired = true;
+            return vec![Action::Stop];
+        }
+        Vec::new()
+    }
+}
+
+/// `n` moves along X from `x0` mm, 1 mm each, as G-code lines.
+fn moves(x0: u32, n: u32) -> String {
+    (1..=n).map(|k| format!("G1 X{} F1000\n", x0 + k)).collect()
+}
+
+/// Programs with machine commands between, before and after their moves,
+/// the path after a command ending at the point count the previous path
+/// ended at (which the status then shows throughout): each ends with exit
+/// 0 within a bounded time, with statuses as far apart as the binary's.
+#[test]
+fn programs_with_machine_commands_anywhere_run_to_their_end() {
+    let mut programs = Vec::new();
+    for cmd in ["G4 P0.1", "M3 S1000", "M8"] {
+        for n in 1..=3 {
+            for m in 1..=3 {
+                programs.push(format!("{}{cmd}\n{}", moves(0, n), moves(n, m)));
+            }
+        }
+        programs.push(format!("{cmd}\n{}", moves(0, 2)));
+        programs.push(format!("{}{cmd}\n", moves(0, 2)));
+        programs.push(format!("{cmd}\n{}{cmd}\n", moves(0, 1)));
+    }
+    for (n, m) in [(1, 1), (2, 2), (1, 3), (3, 1)] {
+        programs.push(format!(
+            "{}G4 P0.05\nM8\nM3 S1000\n{}M9\nM5\n",
+            moves(0, n),
+            moves(n, m)
+        ));
+    }
+    // Back to where the command was, and back to the start.
+    programs.push("G1 X1 F1000\nG1 X2\nG4 P0.1\nG1 X3\nG1 X2\n".into());
+    programs.push("G1 X1 F1000\nG4 P0.1\nG1 X0\n".into());
+    let dir = temp("commands");
+    std::fs::create_dir_all(&dir).unwrap();
+    let h = sim::start(20.0).unwrap();
+    let mut o = opts();
+    o.reports = false;
+    o.status_period = Duration::from_millis(200);
+    for (k, body) in programs.iter().enumerate() {
+        let f = dir.join(format!("p{k}.ngc"));
+        std::fs::write(&f, format!("G21 G90\n{body}")).unwrap();
+        let p = load(&f.to_string_lossy());
+        let mut s = session(&h, Recorder::none());
+        let hs = s.handshake(&o).unwrap();
+        let mut limit = Deadline {
+            limit: Duration::from_secs(10),
+            fired: false,
+        };
+        let t = Instant::now();
+        let out = s.run(&p, &hs, &o, &mut limit, &mut Quiet);
+        assert_eq!(out.exit, Exit::Done, "{body}: {}", out.message);
+        assert!(t.elapsed() < Duration::from_secs(10), "{body}");
+        assert_eq!(out.summary.machine_applied as usize, p.events.len());
+        assert!(out.summary.ended_on_last_point, "{body}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
