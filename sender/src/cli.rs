@@ -459,8 +459,9 @@ fn settings(
             let _ = writeln!(out, "{}", machine::setting_line(info, v));
         }
         Some((info, Some(raw))) => {
+            let was = s.get_setting(info.id, link_timeout)?;
             let stored = s.set_setting(info.id, raw, link_timeout)?;
-            let _ = writeln!(out, "{}", machine::setting_line(info, raw));
+            let _ = writeln!(out, "{}", machine::written_line(info, raw, was));
             let when = match info.apply {
                 controller::config::Apply::Restart => "; takes effect at the next reset",
                 _ => "; in force",

@@ -144,9 +144,17 @@ fn the_binarys_machine_commands_and_their_exit_codes() {
     assert!(out.starts_with("$22=0 (homing"), "{out}");
     let (code, out, err) = fuzzy_send(&["settings", "set", "120", "750"]);
     assert_eq!(code, Some(0), "{err}");
-    assert!(out.starts_with("$120=750 "), "{out}");
+    let was = controller::config::Config::DEFAULT.by_id(120).unwrap();
+    assert!(
+        out.starts_with(&format!("$120 = 750 mm/s² (was {was}; ")),
+        "{out}"
+    );
     assert!(err.contains("saved to flash"), "{err}");
-    // Checked before connecting: exit 2.
+    // Checked before connecting: exit 2. An unquoted `$100` arrives as
+    // `00`: refused, with the quoting hint, not taken as `$0`.
+    let (code, _, err) = fuzzy_send(&["settings", "set", "00", "5"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("'$100'"), "{err}");
     let (code, _, err) = fuzzy_send(&["settings", "set", "110", "0"]);
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("range"), "{err}");
