@@ -241,7 +241,9 @@ pub struct JogArgs {
     /// The move: axis words (X, Y, Z), the feed F (required), and G90
     /// (machine coordinates) or G91 (relative, the default), G20 (inches)
     /// or G21 (mm, the default).
-    #[arg(required = true, allow_hyphen_values = true, value_name = "WORD")]
+    // A word starts with its letter (`X-10`), never with `-`: options,
+    // the link's included, may come before, between or after the words.
+    #[arg(required = true, value_name = "WORD")]
     pub words: Vec<String>,
     /// Send even if the controller's settings differ from the host's.
     #[arg(long)]
@@ -916,5 +918,64 @@ mod tests {
         assert!(
             Cli::try_parse_from(["fuzzy-send", "send", "x", "--override", "300", "--sim"]).is_err()
         );
+    }
+
+    fn jog_words(c: &Cli) -> Vec<String> {
+        match &c.command {
+            Command::Jog(a) => a.words.clone(),
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn the_link_options_go_anywhere_even_after_a_jogs_words() {
+        let tcp = Target::Tcp("127.0.0.1:7878".into());
+        let words = ["X-10", "Y2.5", "F1000"];
+        for argv in [
+            &["jog", "X-10", "Y2.5", "F1000", "--tcp", "127.0.0.1:7878"][..],
+            &["jog", "--tcp", "127.0.0.1:7878", "X-10", "Y2.5", "F1000"],
+            &["--tcp", "127.0.0.1:7878", "jog", "X-10", "Y2.5", "F1000"],
+            &["jog", "X-10", "--tcp=127.0.0.1:7878", "Y2.5", "F1000"],
+        ] {
+            let c = Cli::try_parse_from(std::iter::once("fuzzy-send").chain(argv.iter().copied()))
+                .unwrap_or_else(|e| panic!("{argv:?}: {e}"));
+            assert_eq!(c.link.target().unwrap(), tcp, "{argv:?}");
+            assert_eq!(jog_words(&c), words, "{argv:?}");
+        }
+        let c = Cli::try_parse_from([
+            "fuzzy-send",
+            "jog",
+            "G90",
+            "z-1",
+            "--log",
+            "F300",
+            "--sim=5",
+            "--link-timeout",
+            "2",
+        ])
+        .unwrap();
+        assert_eq!(jog_words(&c), ["G90", "z-1", "F300"]);
+        assert_eq!(c.link.target().unwrap(), Target::Sim { speed: 5.0 });
+        assert_eq!(c.link.link_timeout, 2.0);
+        assert!(matches!(c.command, Command::Jog(JogArgs { log: true, .. })));
+        // After `--`, words are words.
+        let c = Cli::try_parse_from(["fuzzy-send", "--sim", "jog", "--", "X1", "--x"]).unwrap();
+        assert_eq!(jog_words(&c), ["X1", "--x"]);
+        // Every command takes them after its own arguments.
+        for argv in [
+            &["settings", "set", "100", "80", "--port", "/dev/x"][..],
+            &["settings", "get", "100", "--port", "/dev/x"],
+            &["status", "--json", "--port", "/dev/x"],
+            &["monitor", "--period", "2", "--port", "/dev/x"],
+            &["home", "--axes", "Z", "--port", "/dev/x"],
+            &["send", "x.nc", "--verify", "--port", "/dev/x"],
+        ] {
+            let c = Cli::try_parse_from(std::iter::once("fuzzy-send").chain(argv.iter().copied()))
+                .unwrap_or_else(|e| panic!("{argv:?}: {e}"));
+            assert!(
+                matches!(c.link.target(), Ok(Target::Serial { .. })),
+                "{argv:?}"
+            );
+        }
     }
 }
