@@ -4,8 +4,10 @@
 # firmware's exit status becomes QEMU's.
 #
 #   FW_TIMEOUT=secs   wall-clock limit (default 600; 0 = none)
-#   FW_SERIAL=spec    where USART1 goes (default tcp::7878,server=on,wait=off:
-#                     connect a host there to stream a path)
+#   FW_SERIAL=spec    where USART1 goes (default
+#                     tcp:127.0.0.1:7878,server=on,wait=off: connect a
+#                     host there to stream a path; loopback only, so that
+#                     no other machine can drive the simulated motion)
 #   FW_ICOUNT=1       -icount shift=0 (1 instruction = 1 ns, deterministic);
 #                     always on for the `cost` benchmark
 #
@@ -15,7 +17,7 @@ set -euo pipefail
 elf=$1
 shift
 timeout_s=${FW_TIMEOUT:-600}
-serial=${FW_SERIAL:-tcp::7878,server=on,wait=off}
+serial=${FW_SERIAL:-tcp:127.0.0.1:7878,server=on,wait=off}
 args=(-cpu cortex-m4 -machine netduinoplus2 -display none -monitor none
       -semihosting-config enable=on,target=native -serial "$serial")
 name=$(basename "$elf")
