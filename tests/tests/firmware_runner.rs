@@ -1,8 +1,9 @@
 //! The firmware's cargo runner (`firmware/scripts/qemu-run.sh`) as
 //! `cargo run` calls it, with a stand-in `qemu-system-arm` first on the
-//! `PATH` that records its arguments: no QEMU runs. USART1 goes to the
-//! loopback address by default, so that no other machine reaches the
-//! simulated motion.
+//! `PATH` that records its arguments and whether it runs under `timeout`:
+//! no QEMU runs. USART1 goes to the loopback address by default, so that
+//! no other machine reaches the simulated motion; the firmware runs until
+//! stopped, the images that end by themselves within a limit.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -23,10 +24,12 @@ fn qemu_args(dir: &Path, image: &str, env: &[(&str, &str)]) -> Vec<String> {
     let bin = dir.join("bin");
     std::fs::create_dir_all(&bin).expect("stub folder");
     let out = dir.join("args");
+    let _ = std::fs::remove_file(&out);
+    let _ = std::fs::remove_file(dir.join("args.parent"));
     let stub = bin.join("qemu-system-arm");
     std::fs::write(
         &stub,
-        "#!/bin/sh\nfor a in \"$@\"; do printf '%s\\n' \"$a\"; done > \"$STUB_OUT\"\n",
+        "#!/bin/sh\nfor a in \"$@\"; do printf '%s\\n' \"$a\"; done > \"$STUB_OUT\"\ncat /proc/$PPID/comm > \"$STUB_OUT.parent\"\n",
     )
     .expect("stub");
     let mut perm = std::fs::metadata(&stub).expect("stub").permissions();
@@ -59,6 +62,12 @@ fn qemu_args(dir: &Path, image: &str, env: &[(&str, &str)]) -> Vec<String> {
         .collect()
 }
 
+/// Whether QEMU ran under `timeout` in the last [`qemu_args`] in `dir`.
+fn under_timeout(dir: &Path) -> bool {
+    let parent = std::fs::read_to_string(dir.join("args.parent")).expect("the stand-in's parent");
+    parent.trim() == "timeout"
+}
+
 /// The value after `flag`.
 fn after<'a>(args: &'a [String], flag: &str) -> Option<&'a str> {
     let k = args.iter().position(|a| a == flag)?;
@@ -80,5 +89,21 @@ fn usart1_listens_on_loopback_unless_told_otherwise() {
         &[("FW_SERIAL", "unix:/tmp/x.sock,server=on")],
     );
     assert_eq!(after(&args, "-serial"), Some("unix:/tmp/x.sock,server=on"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_firmware_runs_until_stopped_and_benchmarks_within_a_limit() {
+    let dir = scratch("timeout");
+    qemu_args(&dir, "fuzzy-firmware", &[]);
+    assert!(!under_timeout(&dir), "a user's `cargo run` has no limit");
+    qemu_args(&dir, "fuzzy-firmware", &[("FW_TIMEOUT", "30")]);
+    assert!(under_timeout(&dir), "FW_TIMEOUT sets one");
+    for image in ["cost", "numerics_cost"] {
+        qemu_args(&dir, image, &[]);
+        assert!(under_timeout(&dir), "{image}: ends by itself, else fails");
+        qemu_args(&dir, image, &[("FW_TIMEOUT", "0")]);
+        assert!(!under_timeout(&dir), "{image}: FW_TIMEOUT=0 is none");
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
