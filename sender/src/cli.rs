@@ -507,7 +507,7 @@ fn base_options(link_timeout: Duration) -> Result<Options, Failure> {
 pub fn status_text(s: &Status) -> String {
     let [x, y, z] = s.pos_mm.map(bits_f64);
     format!(
-        "state: {}\nposition: X{x:.4} Y{y:.4} Z{z:.4} mm\nfeed: {:.1} mm/min, override {} %\nplanner: {} points, scheduler lookahead: {} points\nsequence: next {}, credit to {}\npath: point {} reached, {} underruns\nlink: {} bad frames\nticks: {} ({} moving on this path, {} empty)\nsteps: {} ticks short (worst {} steps), {} late ticks\n",
+        "state: {}\nposition: X{x:.4} Y{y:.4} Z{z:.4} mm\nfeed: {:.1} mm/min, override {} %\nplanner: {} points, scheduler lookahead: {} points\nsequence: next {}, credit to {}\npath: point {} reached, {} underruns since power-up\nlink: {} bad frames since power-up\nticks: {} ({} moving on this path, {} empty)\nsteps: {} ticks short (worst {} steps), {} late ticks\n",
         state_name(s.motion),
         bits_f64(s.feed_mm_per_min),
         s.override_percent,
@@ -690,10 +690,10 @@ pub fn summary_text(o: &Outcome) -> Vec<String> {
     if o.exit == Exit::Done && !s.ended_on_last_point {
         out.push("WARNING: the tool did not end exactly on the path's last point".into());
     }
-    if let Some(st) = s.last_status {
+    if s.last_status.is_some() {
         out.push(format!(
-            "link: {} resends, {} refusals reported; controller: {} underruns, {} bad frames",
-            s.resends, s.refusals, st.underruns, st.bad_frames
+            "this run: link {} resends, {} refusals reported; controller {} underruns, {} bad frames",
+            s.resends, s.refusals, s.underruns, s.bad_frames
         ));
     }
     out

@@ -264,8 +264,13 @@ pub struct Summary {
     pub mismatch_examples: Vec<(usize, f64, f64)>,
     /// Whether the tool ended exactly on the path's last point.
     pub ended_on_last_point: bool,
-    /// Go-backs of the link client.
+    /// Go-backs of the link client during the run.
     pub resends: u32,
+    /// The controller's underrun stops during the run (its status counts
+    /// them since power-up: the difference from the handshake's).
+    pub underruns: u32,
+    /// Frames the controller refused during the run (likewise).
+    pub bad_frames: u32,
     /// Refusals the controller reported (line noise, credit, sequence).
     pub refusals: u32,
     /// The controller's stop report, when a stop ended the run.
@@ -566,11 +571,16 @@ impl Session {
         display: &mut dyn Display,
     ) -> Outcome {
         let mut run = Run::new(program, hs, opts);
+        let resends0 = self.conn.client().resends();
         let r = run.go(self, actions, display);
         let mut summary = run.summary;
         summary.elapsed = run.t_start.elapsed();
         summary.last_status = self.conn.client().last_status();
-        summary.resends = self.conn.client().resends();
+        summary.resends = self.conn.client().resends().wrapping_sub(resends0);
+        if let Some(st) = summary.last_status {
+            summary.underruns = st.underruns.wrapping_sub(hs.status.underruns);
+            summary.bad_frames = st.bad_frames.wrapping_sub(hs.status.bad_frames);
+        }
         match r {
             Ok((exit, message)) => Outcome {
                 exit,

@@ -727,3 +727,34 @@ fn programs_with_machine_commands_anywhere_run_to_their_end() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The summary's counters are the run's own: frames refused and
+/// underruns before it (the controller counts them since power-up) are
+/// not the run's.
+#[test]
+fn the_summary_counts_this_run_only() {
+    let h = sim::start(10.0).unwrap();
+    let raw = h.connect().unwrap();
+    let mut noise = raw.try_clone().unwrap();
+    let mut s = Session::new(
+        Box::new(raw.try_clone().unwrap()),
+        Box::new(raw),
+        Recorder::none(),
+    );
+    let o = opts();
+    s.handshake(&o).unwrap();
+    // Two frames of garbage (delimited by 0), refused by the controller.
+    noise.write_all(&[1, 2, 3, 0, 9, 9, 9, 9, 0]).unwrap();
+    let before = s.status_within(T, |_| {}).unwrap();
+    assert!(before.bad_frames >= 1, "{before:?}");
+    let p = load("infinity");
+    let hs = s.handshake(&o).unwrap();
+    let out = s.run(&p, &hs, &o, &mut NoActions, &mut Quiet);
+    assert_done(&out, &p);
+    assert_eq!(out.summary.bad_frames, 0);
+    assert_eq!(out.summary.resends, 0);
+    assert!(out.summary.last_status.unwrap().bad_frames >= 1);
+    let text = sender::cli::summary_text(&out).join("\n");
+    assert!(text.contains("this run: link 0 resends"), "{text}");
+    assert!(text.contains("0 bad frames"), "{text}");
+}
