@@ -489,7 +489,9 @@ fn connect(
     rec: Recorder,
 ) -> Result<(Session, Option<crate::sim::SimHandle>), Failure> {
     let o = transport::open(target)?;
-    Ok((Session::new(o.writer, o.reader, rec), o.sim))
+    let mut s = Session::new(o.writer, o.reader, rec);
+    s.set_no_answer_hint(target.no_answer_hint());
+    Ok((s, o.sim))
 }
 
 fn base_options(link_timeout: Duration) -> Result<Options, Failure> {
@@ -617,9 +619,7 @@ fn describe_handshake(hs: &Handshake) -> String {
     };
     match &hs.settings {
         SettingsCheck::Matched => s.push_str("; settings match the host's (its hello is what its $ settings give)"),
-        SettingsCheck::Unchecked if hs.config.is_some() => s.push_str(
-            "; $ settings read (its hello went out at reset: reset the board to check the firmware's build against the host's)",
-        ),
+        SettingsCheck::Unchecked if hs.config.is_some() => s.push_str("; $ settings read"),
         SettingsCheck::Unchecked => s.push_str(
             "; settings not checked (its hello went out at reset, and it did not answer every $ query)",
         ),
@@ -658,10 +658,15 @@ pub fn summary_text(o: &Outcome) -> Vec<String> {
                 .map(|(i, c, h)| format!("point {}: controller {c} host {h} mm/min", i + 1))
                 .collect();
             out.push(format!(
-                "WARNING: {} of {} scheduled feeds differ from the host's schedule (firmware built with other settings?): {}",
+                "WARNING: {} of {} scheduled feeds differ from the host's schedule (firmware built with other settings?): {}{}",
                 s.feed_mismatches,
                 s.scheduled,
-                ex.join(", ")
+                ex.join(", "),
+                if s.build_checked {
+                    ""
+                } else {
+                    "; the firmware's build was not checked (the controller's hello, sent at its reset, went out before this connection): reset it and run again to check it"
+                }
             ));
         }
     }
@@ -887,9 +892,36 @@ mod tests {
             "{t:?}"
         );
         assert!(t[1].contains("last point"), "{t:?}");
+        // Mismatches with the build unchecked: how to check it.
+        assert!(t[0].contains("reset it and run again"), "{t:?}");
+        let checked = Summary {
+            build_checked: true,
+            ..bad.clone()
+        };
+        let t = summary_text(&outcome(Exit::Done, checked));
+        assert!(!t[0].contains("reset"), "{t:?}");
         // A stopped run is not expected on the last point.
         let t = summary_text(&outcome(Exit::UserStop, bad));
         assert!(!t.iter().any(|l| l.contains("last point")), "{t:?}");
+    }
+
+    #[test]
+    fn a_running_controller_is_described_without_advice_to_reset_it() {
+        let hs = Handshake {
+            hello: None,
+            status: Status::default(),
+            machine: link::MachineStatus::default(),
+            settings: SettingsCheck::Unchecked,
+            config: Some(controller::config::Config::DEFAULT),
+            changed: Vec::new(),
+            credit_size: controller::settings::CMD_CREDIT,
+        };
+        let d = describe_handshake(&hs);
+        assert!(
+            d.contains("already running") && d.contains("settings read"),
+            "{d}"
+        );
+        assert!(!d.contains("reset"), "{d}");
     }
 
     #[test]

@@ -264,6 +264,9 @@ pub struct Summary {
     pub mismatch_examples: Vec<(usize, f64, f64)>,
     /// Whether the tool ended exactly on the path's last point.
     pub ended_on_last_point: bool,
+    /// The controller's hello was checked against the host's build
+    /// ([`SettingsCheck::Matched`]).
+    pub build_checked: bool,
     /// Go-backs of the link client during the run.
     pub resends: u32,
     /// The controller's underrun stops during the run (its status counts
@@ -316,6 +319,7 @@ pub struct Session {
     t0: Instant,
     last_rx: Instant,
     raw_hello: Option<DeviceMsg>,
+    no_answer_hint: &'static str,
 }
 
 impl Session {
@@ -327,7 +331,15 @@ impl Session {
             t0: Instant::now(),
             last_rx: Instant::now(),
             raw_hello: None,
+            no_answer_hint:
+                "is it powered and running the firmware; are the port and baud rate right?",
         }
+    }
+
+    /// What the message for a controller that does not answer suggests
+    /// (by the kind of link: `transport::Target::no_answer_hint`).
+    pub fn set_no_answer_hint(&mut self, hint: &'static str) {
+        self.no_answer_hint = hint;
     }
 
     /// The link client (sequence numbers, credit).
@@ -394,8 +406,9 @@ impl Session {
                 return Err(Failure::new(
                     Exit::LinkLost,
                     format!(
-                        "no answer from the controller within {:.1} s (is it powered and running the firmware; are the port and baud rate right?)",
-                        timeout.as_secs_f64()
+                        "no answer from the controller within {:.1} s ({})",
+                        timeout.as_secs_f64(),
+                        self.no_answer_hint
                     ),
                 ));
             }
@@ -434,8 +447,9 @@ impl Session {
                 return Err(Failure::new(
                     Exit::LinkLost,
                     format!(
-                        "no answer from the controller within {:.1} s",
-                        timeout.as_secs_f64()
+                        "no answer from the controller within {:.1} s ({})",
+                        timeout.as_secs_f64(),
+                        self.no_answer_hint
                     ),
                 ));
             }
@@ -577,6 +591,7 @@ impl Session {
         summary.elapsed = run.t_start.elapsed();
         summary.last_status = self.conn.client().last_status();
         summary.resends = self.conn.client().resends().wrapping_sub(resends0);
+        summary.build_checked = hs.settings == SettingsCheck::Matched;
         if let Some(st) = summary.last_status {
             summary.underruns = st.underruns.wrapping_sub(hs.status.underruns);
             summary.bad_frames = st.bad_frames.wrapping_sub(hs.status.bad_frames);

@@ -196,3 +196,21 @@ fn the_binarys_machine_commands_and_their_exit_codes() {
     assert_eq!(code, Some(0), "{err}");
     assert!(err.contains("sending jog: 2 points, 2.2 mm"), "{err}");
 }
+
+/// A TCP port that accepts and never answers (as QEMU's port does for a
+/// second client while the first holds it): link lost, exit 4, and the
+/// message speaks of a busy port, not of power and baud rates.
+#[test]
+fn a_silent_tcp_port_is_said_to_be_busy() {
+    let l = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = l.local_addr().unwrap().to_string();
+    let held = std::thread::spawn(move || l.accept().map(|c| c.0));
+    let out = Command::new(env!("CARGO_BIN_EXE_fuzzy-send"))
+        .args(["status", "--tcp", &addr, "--link-timeout", "1"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(4), "{err}");
+    assert!(err.contains("busy") && !err.contains("baud"), "{err}");
+    drop(held.join());
+}
