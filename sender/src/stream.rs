@@ -14,7 +14,8 @@ use controller::settings::{Plan, CMD_CREDIT};
 use fuzzy_core::scheduler::SchedulerConfig;
 use link::client::{Connection, Hello, SILENCE};
 use link::{
-    AlarmCode, DeviceMsg, ErrorCode, HostMsg, MachineStatus, Motion, PlanEvent, Status, StoreResult,
+    AlarmCode, DeviceMsg, ErrorCode, HostMsg, MachineCmd, MachineStatus, Motion, PlanEvent, Status,
+    StoreResult,
 };
 
 use crate::actions::{Action, Effect, Operator, StopKind};
@@ -654,6 +655,13 @@ struct Run<'a> {
     machine_asked: bool,
     /// The last status.
     last_status: Status,
+    /// The most points of the program reached so far: progress shown
+    /// never goes back (a status can come before the report of the
+    /// machine command that began its path).
+    progress: u32,
+    /// The last machine command applied, while the path after it has not
+    /// begun (the controller at rest, waiting for it).
+    waiting_on: Option<MachineCmd>,
 }
 
 impl<'a> Run<'a> {
@@ -706,6 +714,8 @@ impl<'a> Run<'a> {
             alarm_refused: None,
             machine_asked: false,
             last_status: hs.status,
+            progress: 0,
+            waiting_on: None,
         }
     }
 
@@ -814,12 +824,24 @@ impl<'a> Run<'a> {
     fn view(&self, s: &Session, stopping: bool) -> View {
         let c = s.conn.client();
         let st = c.last_status().unwrap_or_default();
-        let reached = self.reached(&st);
+        let credit = (c.window_end().wrapping_sub(c.send_next()) as i32).max(0) as u32;
+        self.view_of(st, credit, stopping)
+    }
+
+    fn view_of(&self, st: Status, credit: u32, stopping: bool) -> View {
+        let reached = self.reached(&st).map(|r| r.max(self.progress));
         let r = reached.unwrap_or(0);
+        let waiting = match self.waiting_on {
+            Some(MachineCmd::Spindle { dir, .. }) if dir != link::SpindleDir::Off => {
+                Some("Spin-up")
+            }
+            Some(MachineCmd::Dwell { .. }) => Some("Dwell"),
+            _ => None,
+        };
         View {
             status: st,
             queued: queued(&st, self.credit_size),
-            credit: (c.window_end().wrapping_sub(c.send_next()) as i32).max(0) as u32,
+            credit,
             reached,
             points: self.program.len() as u32,
             done_mm: match r {
@@ -831,6 +853,7 @@ impl<'a> Run<'a> {
             elapsed: self.t_start.elapsed(),
             hold_asked: self.operator.hold,
             stopping,
+            waiting,
         }
     }
 
@@ -1060,8 +1083,11 @@ impl<'a> Run<'a> {
                 event: PlanEvent::EndPath,
                 ..
             } if self.started => self.end_planned = true,
-            DeviceMsg::Applied { seq, point, .. } => {
+            DeviceMsg::Applied {
+                seq, point, cmd, ..
+            } => {
                 if let Some((_, Item::Machine { index })) = self.item(seq) {
+                    self.waiting_on = Some(cmd);
                     self.started = true;
                     self.summary.machine_applied += 1;
                     let want = self.applied_at.get(index).copied().unwrap_or(0);
@@ -1089,6 +1115,7 @@ impl<'a> Run<'a> {
                 if let Some(g) = self.segment.as_mut() {
                     if st.point_reached != g.stale || consumed {
                         g.begun = true;
+                        self.waiting_on = None;
                     }
                 }
                 if st.point_reached != self.stale_reached {
@@ -1098,6 +1125,7 @@ impl<'a> Run<'a> {
                 let t = self.t_start.elapsed().as_secs_f64();
                 let r = self.reached(&st).unwrap_or(0);
                 self.eta.update(t, r, st.override_percent, counts);
+                self.progress = self.progress.max(r);
             }
             DeviceMsg::Error { code, expected_seq } => {
                 self.summary.refusals += 1;
@@ -1439,6 +1467,7 @@ mod tests {
         };
         r.on_message(&DeviceMsg::Status(waiting), None).unwrap();
         assert_eq!(r.reached(&waiting), Some(2), "the dwell runs");
+        assert_eq!(r.view_of(waiting, 0, false).waiting, Some("Dwell"));
         // The second path (X1 again, X2) also ends at count 2.
         let done = Status {
             points_held: 0,
@@ -1447,6 +1476,26 @@ mod tests {
         };
         r.on_message(&DeviceMsg::Status(done), None).unwrap();
         assert_eq!(r.reached(&done), Some(3));
+        assert_eq!(r.view_of(done, 0, false).waiting, None);
+    }
+
+    #[test]
+    fn progress_shown_never_goes_back() {
+        let p = program();
+        let o = Options::new(crate::program::scheduler_config(3000.0, 60.0).unwrap());
+        let mut r = run(&p, &o);
+        let at = |point_reached| Status {
+            point_reached,
+            motion: Motion::Running,
+            ..Status::default()
+        };
+        r.on_message(&DeviceMsg::Status(at(50)), None).unwrap();
+        let v = r.view_of(at(50), 0, false);
+        assert_eq!(v.reached, Some(50));
+        r.on_message(&DeviceMsg::Status(at(48)), None).unwrap();
+        let w = r.view_of(at(48), 0, false);
+        assert_eq!(w.reached, Some(50));
+        assert_eq!(w.done_mm, v.done_mm);
     }
 
     #[test]
