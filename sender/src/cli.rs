@@ -722,6 +722,7 @@ fn send(a: SendArgs, target: &Target, link_timeout: Duration) -> Result<Exit, Fa
         no_check: a.no_check,
         verify: a.verify,
         log: a.log,
+        jog: false,
     };
     let file = a.file.clone();
     run_program(run, target, link_timeout, move |here| {
@@ -745,12 +746,14 @@ fn jog(a: JogArgs, target: &Target, link_timeout: Duration) -> Result<Exit, Fail
         // scheduled at its programmed feed).
         f_max: Some(j.feed_mm_per_min().min(program::machine_feed_max())),
         f_min: (controller::settings::F_MIN_MM_PER_MIN as f64).min(j.feed_mm_per_min().max(1.0)),
-        override_percent: None,
+        // As Grbl's jogs: at the feed given, whatever the override.
+        override_percent: Some(100),
         script: None,
         record: None,
         no_check: a.no_check,
         verify: false,
         log: a.log,
+        jog: true,
     };
     run_program(run, target, link_timeout, move |here| {
         program::jog(&j, here, &SimConfig::default())
@@ -768,6 +771,8 @@ struct RunArgs {
     no_check: bool,
     verify: bool,
     log: bool,
+    /// A jog: the override before it is set back after it.
+    jog: bool,
 }
 
 /// Connect, hand the program `build` makes from the tool's position
@@ -791,6 +796,7 @@ fn run_program(
     let mut opts = base_options(link_timeout)?;
     opts.check_settings = !a.no_check;
     opts.initial_override = a.override_percent;
+    opts.restore_override = a.jog;
     opts.reports = a.verify;
     let hs = session.handshake(&opts)?;
     // From here on Ctrl-C is a controlled stop (before, it ends the
@@ -804,6 +810,12 @@ fn run_program(
     opts.config =
         program::scheduler_config(f_max, a.f_min).map_err(|e| Failure::new(Exit::Usage, e))?;
     let program = build(hs.status.pos_mm.map(bits_f64))?;
+    let ovr = hs.status.override_percent;
+    if a.override_percent.is_none() && ovr != 100 {
+        say(&format!(
+            "feed override {ovr} % in force, as left by an earlier run (it lasts until the controller resets, as in Grbl): --override 100 runs at the programmed feeds"
+        ));
+    }
     say(&format!(
         "sending {}: {} points, {:.1} mm, F_max {} mm/min, F_min {} mm/min",
         program.name,

@@ -42,6 +42,11 @@ pub struct Options {
     pub check_settings: bool,
     /// An override to set before streaming, percent.
     pub initial_override: Option<u16>,
+    /// After the run, set the controller's override back to what it was
+    /// before [`Options::initial_override`] (a jog runs at its own feed,
+    /// as Grbl's jogs ignore the feed override, and leaves the override
+    /// of the programs as it found it).
+    pub restore_override: bool,
     /// Ask the controller to report every input of its planner (the
     /// scheduled feeds, checked against the host's schedule bit for bit,
     /// and the events; about 23 bytes a point back over the link).
@@ -59,6 +64,7 @@ impl Options {
             hello_wait: Duration::from_millis(500),
             check_settings: true,
             initial_override: None,
+            restore_override: false,
             reports: false,
         }
     }
@@ -457,6 +463,19 @@ impl Session {
         }
     }
 
+    /// Set the feed override (percent) and wait for the controller's
+    /// acknowledgement.
+    pub fn set_override(&mut self, percent: u16, timeout: Duration) -> Result<(), Failure> {
+        let ack = |m: &DeviceMsg| matches!(m, DeviceMsg::Ack { .. }).then_some(());
+        self.ask(&HostMsg::Override { percent }, timeout, ack, |_| {})?
+            .map_err(|code| {
+                Failure::new(
+                    Exit::Controller,
+                    format!("the controller refused the override {percent} % ({code:?})"),
+                )
+            })
+    }
+
     /// The machine status (alarm, homing, spindle, coolant, inputs, the
     /// settings store).
     pub fn machine_within(&mut self, timeout: Duration) -> Result<MachineStatus, Failure> {
@@ -587,7 +606,22 @@ impl Session {
     ) -> Outcome {
         let mut run = Run::new(program, hs, opts);
         let resends0 = self.conn.client().resends();
-        let r = run.go(self, actions, display);
+        let mut r = run.go(self, actions, display);
+        let before = hs.status.override_percent;
+        let changed = opts.initial_override.is_some_and(|p| p != before);
+        let lost = matches!(&r, Err(f) if f.exit == Exit::LinkLost);
+        if opts.restore_override && changed && !lost {
+            if let Err(f) = self.set_override(before, opts.link_timeout) {
+                let note = format!(
+                    "; the feed override could not be set back to {before} %: {}",
+                    f.message
+                );
+                match &mut r {
+                    Ok((_, m)) => m.push_str(&note),
+                    Err(e) => e.message.push_str(&note),
+                }
+            }
+        }
         let mut summary = run.summary;
         summary.elapsed = run.t_start.elapsed();
         summary.last_status = self.conn.client().last_status();

@@ -758,3 +758,42 @@ fn the_summary_counts_this_run_only() {
     assert!(text.contains("this run: link 0 resends"), "{text}");
     assert!(text.contains("0 bad frames"), "{text}");
 }
+
+/// As in Grbl: a feed override lasts from one program to the next, and a
+/// jog runs at its own feed whatever the override, which it leaves as it
+/// found it.
+#[test]
+fn an_override_lasts_across_programs_and_jogs_ignore_it() {
+    let h = sim::start(4.0).unwrap();
+    let p = load("infinity");
+    let mut s = session(&h, Recorder::none());
+    let mut o = opts();
+    o.initial_override = Some(150);
+    let hs = s.handshake(&o).unwrap();
+    assert_done(&s.run(&p, &hs, &o, &mut NoActions, &mut Quiet), &p);
+    // The next program finds it in force.
+    let o = opts();
+    let hs = s.handshake(&o).unwrap();
+    assert_eq!(hs.status.override_percent, 150);
+    // A jog at F1000: at 100 % while it runs, 150 % again after.
+    let rec = temp("jog-override.jsonl");
+    let mut s = session(&h, Recorder::create(&rec).unwrap());
+    let mut o = opts();
+    o.initial_override = Some(100);
+    o.restore_override = true;
+    let hs = s.handshake(&o).unwrap();
+    let j = Jog::parse(&["X-5", "F1000"]).unwrap();
+    let jp = program::jog(&j, hs.status.pos_mm.map(bits_f64), &SimConfig::default()).unwrap();
+    let out = s.run(&jp, &hs, &o, &mut NoActions, &mut Quiet);
+    s.finish_record().unwrap();
+    assert_done(&out, &jp);
+    let st = statuses(&received(&rec));
+    let moving: Vec<&Status> = st.iter().filter(|s| s.motion == Motion::Running).collect();
+    assert!(!moving.is_empty());
+    for m in moving {
+        assert_eq!(m.override_percent, 100, "{m:?}");
+        assert!(bits_f64(m.feed_mm_per_min) <= 1000.0 + 1e-6, "{m:?}");
+    }
+    assert_eq!(s.status_within(T, |_| {}).unwrap().override_percent, 150);
+    std::fs::remove_file(&rec).ok();
+}
