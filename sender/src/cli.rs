@@ -464,16 +464,30 @@ fn settings(
             let was = s.get_setting(info.id, link_timeout)?;
             let stored = s.set_setting(info.id, raw, link_timeout)?;
             let _ = writeln!(out, "{}", machine::written_line(info, raw, was));
-            let when = match info.apply {
-                controller::config::Apply::Restart => "; takes effect at the next reset",
-                _ => "; in force",
+            // A setting taken at reset is in force if it is the value the
+            // controller runs with (it says whether a reset is pending).
+            let pending = match info.apply {
+                controller::config::Apply::Restart => {
+                    s.machine_within(link_timeout)?.restart_needed
+                }
+                _ => false,
             };
+            let when = if pending {
+                "; takes effect at the next reset"
+            } else {
+                "; in force"
+            };
+            // The value is taken either way: a store that failed is a
+            // warning, not a refusal (QEMU's flash keeps nothing).
             match stored {
                 Some(link::StoreResult::Saved) => say(&format!("written{when}; saved to flash")),
-                Some(r) => {
-                    say(&format!("written{when}; but {}", machine::stored_text(r)));
-                    return Ok(Exit::Controller);
-                }
+                Some(link::StoreResult::WriteFailed) => say(&format!(
+                    "written{when}; WARNING: not saved, the flash write failed: lost at the next reset"
+                )),
+                Some(r) => say(&format!(
+                    "written{when}; WARNING: not saved ({})",
+                    machine::stored_text(r)
+                )),
                 None => say(&format!(
                     "written{when}; the controller did not report the flash write"
                 )),

@@ -264,6 +264,17 @@ pub fn written_line(info: &SettingInfo, raw: i64, was: i64) -> String {
     )
 }
 
+/// The settings a write of `id` is checked against by the controller
+/// (`Config::from_values`' cross-checks), for its refusal: what must hold.
+pub fn cross_check(id: u16) -> Option<&'static str> {
+    Some(match id {
+        30 | 31 => "$31 (the spindle speed at the least PWM) must stay below $30 (the speed at full PWM)",
+        0 | 205 | 200 => "the step pulse ($0) and the direction setup ($205) must fit within a tick ($200), a whole number of step timer counts",
+        110..=112 | 120..=122 | 201..=204 | 208 => "the planner must take the rates ($110-$112), accelerations ($120-$122), feed maximum ($201), jerk ($202), chord tolerance ($203), tangential share ($204) and smoothing ($208) together",
+        _ => return None,
+    })
+}
+
 /// How a homing cycle ended.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum HomeResult {
@@ -437,7 +448,14 @@ impl Session {
         // sent at start-up).
         let got = self
             .ask(&HostMsg::SetSetting { id, value }, timeout, pick, |_| {})?
-            .map_err(|c| refused(&format!("${id}={value}"), c))?;
+            .map_err(|c| {
+                let mut f = refused(&format!("${id}={value}"), c);
+                if let (ErrorCode::OutOfRange, Some(rule)) = (c, cross_check(id)) {
+                    f.message.push_str(": ");
+                    f.message.push_str(rule);
+                }
+                f
+            })?;
         let mut stored = None;
         if got != value {
             return Err(Failure::new(

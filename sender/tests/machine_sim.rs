@@ -163,6 +163,14 @@ fn the_binarys_machine_commands_and_their_exit_codes() {
     // Refused by the controller: exit 5.
     let (code, _, err) = fuzzy_send(&["settings", "set", "31", "1000"]);
     assert_eq!(code, Some(5), "{err}");
+    assert!(err.contains("must stay below $30"), "{err}");
+    // The tick rate, written as it runs: in force, no reset pending.
+    let (code, _, err) = fuzzy_send(&["settings", "set", "200", "1000"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(err.contains("in force") && !err.contains("reset"), "{err}");
+    let (code, _, err) = fuzzy_send(&["settings", "set", "200", "2000"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(err.contains("takes effect at the next reset"), "{err}");
     let (code, _, err) = fuzzy_send(&["home"]);
     assert_eq!(code, Some(5), "{err}");
     assert!(err.contains("$22=0"), "{err}");
