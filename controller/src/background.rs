@@ -426,14 +426,18 @@ impl<'a> Background<'a> {
         // reset (their timers are set up at start-up).
         let config = written.in_force(&self.config);
         let rebuild = config.motion_config() != self.config.motion_config();
+        // A reset is needed while a setting written differs from the one
+        // running (one written back to its running value needs none).
+        let mut restart = config != written;
         if config.step_config() != self.config.step_config() {
             match config.step_settings() {
                 Ok(s) => self.step_settings = Some(s),
                 // Valid with the tick rate written, not with the one
                 // running: at the reset.
-                Err(_) => link.lock(|l| l.restart_needed = true),
+                Err(_) => restart = true,
             }
         }
+        link.lock(|l| l.restart_needed = restart);
         self.config = config;
         self.config_version = version;
         self.latch.set_guard_config(guard_config(&config));

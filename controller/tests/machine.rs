@@ -946,6 +946,13 @@ fn the_tick_rate_applies_at_the_next_reset() {
         }]
     );
     let flash = b.dev.machine.flash.clone();
+    // Written back to the rate running: no reset needed any more.
+    b.set(200, 1000);
+    b.run(5);
+    assert!(!b.machine().restart_needed);
+    b.set(200, 1000);
+    b.run(5);
+    assert!(!b.machine().restart_needed, "the same value again");
     let c = Bench::on(VirtualDevice::with_flash(flash).unwrap());
     assert_eq!(c.client.hello().unwrap().tick_hz, 2000);
 }

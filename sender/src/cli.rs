@@ -242,7 +242,9 @@ pub struct JogArgs {
     /// The move: axis words (X, Y, Z), the feed F (required), and G90
     /// (machine coordinates) or G91 (relative, the default), G20 (inches)
     /// or G21 (mm, the default).
-    #[arg(required = true, allow_hyphen_values = true, value_name = "WORD")]
+    // A word starts with its letter (`X-10`), never with `-`: options,
+    // the link's included, may come before, between or after the words.
+    #[arg(required = true, value_name = "WORD")]
     pub words: Vec<String>,
     /// Send even if the controller's settings differ from the host's.
     #[arg(long)]
@@ -460,18 +462,33 @@ fn settings(
             let _ = writeln!(out, "{}", machine::setting_line(info, v));
         }
         Some((info, Some(raw))) => {
+            let was = s.get_setting(info.id, link_timeout)?;
             let stored = s.set_setting(info.id, raw, link_timeout)?;
-            let _ = writeln!(out, "{}", machine::setting_line(info, raw));
-            let when = match info.apply {
-                controller::config::Apply::Restart => "; takes effect at the next reset",
-                _ => "; in force",
+            let _ = writeln!(out, "{}", machine::written_line(info, raw, was));
+            // A setting taken at reset is in force if it is the value the
+            // controller runs with (it says whether a reset is pending).
+            let pending = match info.apply {
+                controller::config::Apply::Restart => {
+                    s.machine_within(link_timeout)?.restart_needed
+                }
+                _ => false,
             };
+            let when = if pending {
+                "; takes effect at the next reset"
+            } else {
+                "; in force"
+            };
+            // The value is taken either way: a store that failed is a
+            // warning, not a refusal (QEMU's flash keeps nothing).
             match stored {
                 Some(link::StoreResult::Saved) => say(&format!("written{when}; saved to flash")),
-                Some(r) => {
-                    say(&format!("written{when}; but {}", machine::stored_text(r)));
-                    return Ok(Exit::Controller);
-                }
+                Some(link::StoreResult::WriteFailed) => say(&format!(
+                    "written{when}; WARNING: not saved, the flash write failed: lost at the next reset"
+                )),
+                Some(r) => say(&format!(
+                    "written{when}; WARNING: not saved ({})",
+                    machine::stored_text(r)
+                )),
                 None => say(&format!(
                     "written{when}; the controller did not report the flash write"
                 )),
@@ -487,7 +504,9 @@ fn connect(
     rec: Recorder,
 ) -> Result<(Session, Option<crate::sim::SimHandle>), Failure> {
     let o = transport::open(target)?;
-    Ok((Session::new(o.writer, o.reader, rec), o.sim))
+    let mut s = Session::new(o.writer, o.reader, rec);
+    s.set_no_answer_hint(target.no_answer_hint());
+    Ok((s, o.sim))
 }
 
 fn base_options(link_timeout: Duration) -> Result<Options, Failure> {
@@ -505,7 +524,7 @@ fn base_options(link_timeout: Duration) -> Result<Options, Failure> {
 pub fn status_text(s: &Status) -> String {
     let [x, y, z] = s.pos_mm.map(bits_f64);
     format!(
-        "state: {}\nposition: X{x:.4} Y{y:.4} Z{z:.4} mm\nfeed: {:.1} mm/min, override {} %\nplanner: {} points, scheduler lookahead: {} points\nsequence: next {}, credit to {}\npath: point {} reached, {} underruns\nlink: {} bad frames\nticks: {} ({} moving on this path, {} empty)\nsteps: {} ticks short (worst {} steps), {} late ticks\n",
+        "state: {}\nposition: X{x:.4} Y{y:.4} Z{z:.4} mm\nfeed: {:.1} mm/min, override {} %\nplanner: {} points, scheduler lookahead: {} points\nsequence: next {}, credit to {}\npath: point {} reached, {} underruns since power-up\nlink: {} bad frames since power-up\nticks: {} ({} moving on this path, {} empty)\nsteps: {} ticks short (worst {} steps), {} late ticks\n",
         state_name(s.motion),
         bits_f64(s.feed_mm_per_min),
         s.override_percent,
@@ -615,9 +634,7 @@ fn describe_handshake(hs: &Handshake) -> String {
     };
     match &hs.settings {
         SettingsCheck::Matched => s.push_str("; settings match the host's (its hello is what its $ settings give)"),
-        SettingsCheck::Unchecked if hs.config.is_some() => s.push_str(
-            "; $ settings read (its hello went out at reset: reset the board to check the firmware's build against the host's)",
-        ),
+        SettingsCheck::Unchecked if hs.config.is_some() => s.push_str("; $ settings read"),
         SettingsCheck::Unchecked => s.push_str(
             "; settings not checked (its hello went out at reset, and it did not answer every $ query)",
         ),
@@ -656,10 +673,15 @@ pub fn summary_text(o: &Outcome) -> Vec<String> {
                 .map(|(i, c, h)| format!("point {}: controller {c} host {h} mm/min", i + 1))
                 .collect();
             out.push(format!(
-                "WARNING: {} of {} scheduled feeds differ from the host's schedule (firmware built with other settings?): {}",
+                "WARNING: {} of {} scheduled feeds differ from the host's schedule (firmware built with other settings?): {}{}",
                 s.feed_mismatches,
                 s.scheduled,
-                ex.join(", ")
+                ex.join(", "),
+                if s.build_checked {
+                    ""
+                } else {
+                    "; the firmware's build was not checked (the controller's hello, sent at its reset, went out before this connection): reset it and run again to check it"
+                }
             ));
         }
     }
@@ -688,10 +710,10 @@ pub fn summary_text(o: &Outcome) -> Vec<String> {
     if o.exit == Exit::Done && !s.ended_on_last_point {
         out.push("WARNING: the tool did not end exactly on the path's last point".into());
     }
-    if let Some(st) = s.last_status {
+    if s.last_status.is_some() {
         out.push(format!(
-            "link: {} resends, {} refusals reported; controller: {} underruns, {} bad frames",
-            s.resends, s.refusals, st.underruns, st.bad_frames
+            "this run: link {} resends, {} refusals reported; controller {} underruns, {} bad frames",
+            s.resends, s.refusals, s.underruns, s.bad_frames
         ));
     }
     out
@@ -716,6 +738,7 @@ fn send(a: SendArgs, target: &Target, link_timeout: Duration) -> Result<Exit, Fa
         no_check: a.no_check,
         verify: a.verify,
         log: a.log,
+        jog: false,
     };
     let file = a.file.clone();
     run_program(run, target, link_timeout, move |here| {
@@ -739,12 +762,14 @@ fn jog(a: JogArgs, target: &Target, link_timeout: Duration) -> Result<Exit, Fail
         // scheduled at its programmed feed).
         f_max: Some(j.feed_mm_per_min().min(program::machine_feed_max())),
         f_min: (controller::settings::F_MIN_MM_PER_MIN as f64).min(j.feed_mm_per_min().max(1.0)),
-        override_percent: None,
+        // As Grbl's jogs: at the feed given, whatever the override.
+        override_percent: Some(100),
         script: None,
         record: None,
         no_check: a.no_check,
         verify: false,
         log: a.log,
+        jog: true,
     };
     run_program(run, target, link_timeout, move |here| {
         program::jog(&j, here, &GcodeSettings::default())
@@ -762,6 +787,8 @@ struct RunArgs {
     no_check: bool,
     verify: bool,
     log: bool,
+    /// A jog: the override before it is set back after it.
+    jog: bool,
 }
 
 /// Connect, hand the program `build` makes from the tool's position
@@ -785,6 +812,7 @@ fn run_program(
     let mut opts = base_options(link_timeout)?;
     opts.check_settings = !a.no_check;
     opts.initial_override = a.override_percent;
+    opts.restore_override = a.jog;
     opts.reports = a.verify;
     let hs = session.handshake(&opts)?;
     // From here on Ctrl-C is a controlled stop (before, it ends the
@@ -798,6 +826,12 @@ fn run_program(
     opts.config =
         program::scheduler_config(f_max, a.f_min).map_err(|e| Failure::new(Exit::Usage, e))?;
     let program = build(hs.status.pos_mm.map(bits_f64))?;
+    let ovr = hs.status.override_percent;
+    if a.override_percent.is_none() && ovr != 100 {
+        say(&format!(
+            "feed override {ovr} % in force, as left by an earlier run (it lasts until the controller resets, as in Grbl): --override 100 runs at the programmed feeds"
+        ));
+    }
     say(&format!(
         "sending {}: {} points, {:.1} mm, F_max {} mm/min, F_min {} mm/min",
         program.name,
@@ -886,9 +920,36 @@ mod tests {
             "{t:?}"
         );
         assert!(t[1].contains("last point"), "{t:?}");
+        // Mismatches with the build unchecked: how to check it.
+        assert!(t[0].contains("reset it and run again"), "{t:?}");
+        let checked = Summary {
+            build_checked: true,
+            ..bad.clone()
+        };
+        let t = summary_text(&outcome(Exit::Done, checked));
+        assert!(!t[0].contains("reset"), "{t:?}");
         // A stopped run is not expected on the last point.
         let t = summary_text(&outcome(Exit::UserStop, bad));
         assert!(!t.iter().any(|l| l.contains("last point")), "{t:?}");
+    }
+
+    #[test]
+    fn a_running_controller_is_described_without_advice_to_reset_it() {
+        let hs = Handshake {
+            hello: None,
+            status: Status::default(),
+            machine: link::MachineStatus::default(),
+            settings: SettingsCheck::Unchecked,
+            config: Some(controller::config::Config::DEFAULT),
+            changed: Vec::new(),
+            credit_size: controller::settings::CMD_CREDIT,
+        };
+        let d = describe_handshake(&hs);
+        assert!(
+            d.contains("already running") && d.contains("settings read"),
+            "{d}"
+        );
+        assert!(!d.contains("reset"), "{d}");
     }
 
     #[test]
@@ -917,5 +978,64 @@ mod tests {
         assert!(
             Cli::try_parse_from(["fuzzy-send", "send", "x", "--override", "300", "--sim"]).is_err()
         );
+    }
+
+    fn jog_words(c: &Cli) -> Vec<String> {
+        match &c.command {
+            Command::Jog(a) => a.words.clone(),
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn the_link_options_go_anywhere_even_after_a_jogs_words() {
+        let tcp = Target::Tcp("127.0.0.1:7878".into());
+        let words = ["X-10", "Y2.5", "F1000"];
+        for argv in [
+            &["jog", "X-10", "Y2.5", "F1000", "--tcp", "127.0.0.1:7878"][..],
+            &["jog", "--tcp", "127.0.0.1:7878", "X-10", "Y2.5", "F1000"],
+            &["--tcp", "127.0.0.1:7878", "jog", "X-10", "Y2.5", "F1000"],
+            &["jog", "X-10", "--tcp=127.0.0.1:7878", "Y2.5", "F1000"],
+        ] {
+            let c = Cli::try_parse_from(std::iter::once("fuzzy-send").chain(argv.iter().copied()))
+                .unwrap_or_else(|e| panic!("{argv:?}: {e}"));
+            assert_eq!(c.link.target().unwrap(), tcp, "{argv:?}");
+            assert_eq!(jog_words(&c), words, "{argv:?}");
+        }
+        let c = Cli::try_parse_from([
+            "fuzzy-send",
+            "jog",
+            "G90",
+            "z-1",
+            "--log",
+            "F300",
+            "--sim=5",
+            "--link-timeout",
+            "2",
+        ])
+        .unwrap();
+        assert_eq!(jog_words(&c), ["G90", "z-1", "F300"]);
+        assert_eq!(c.link.target().unwrap(), Target::Sim { speed: 5.0 });
+        assert_eq!(c.link.link_timeout, 2.0);
+        assert!(matches!(c.command, Command::Jog(JogArgs { log: true, .. })));
+        // After `--`, words are words.
+        let c = Cli::try_parse_from(["fuzzy-send", "--sim", "jog", "--", "X1", "--x"]).unwrap();
+        assert_eq!(jog_words(&c), ["X1", "--x"]);
+        // Every command takes them after its own arguments.
+        for argv in [
+            &["settings", "set", "100", "80", "--port", "/dev/x"][..],
+            &["settings", "get", "100", "--port", "/dev/x"],
+            &["status", "--json", "--port", "/dev/x"],
+            &["monitor", "--period", "2", "--port", "/dev/x"],
+            &["home", "--axes", "Z", "--port", "/dev/x"],
+            &["send", "x.nc", "--verify", "--port", "/dev/x"],
+        ] {
+            let c = Cli::try_parse_from(std::iter::once("fuzzy-send").chain(argv.iter().copied()))
+                .unwrap_or_else(|e| panic!("{argv:?}: {e}"));
+            assert!(
+                matches!(c.link.target(), Ok(Target::Serial { .. })),
+                "{argv:?}"
+            );
+        }
     }
 }

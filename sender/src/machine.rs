@@ -148,10 +148,26 @@ pub fn setting(id: u16) -> Option<&'static SettingInfo> {
     SETTINGS.iter().find(|s| s.id == id)
 }
 
-/// A setting's id from `N` or `$N`.
+/// What to tell a user whose shell may have expanded an unquoted `$N`
+/// (`$100` reaches the program as `00`: `$1` is the shell's first
+/// positional argument, usually empty).
+const QUOTE_HINT: &str =
+    "an unquoted `$100` reaches fuzzy-send as `00` (the shell expands `$1`): quote it, '$100', or drop the `$`: 100";
+
+/// A setting's id from `N` or `$N`. A bare `$`, an empty id and ids with
+/// a leading zero are refused: they are what a shell leaves of an
+/// unquoted `$N`, and taken as numbers they would name another setting.
 pub fn parse_id(s: &str) -> Result<u16, String> {
     let t = s.trim();
     let t = t.strip_prefix('$').unwrap_or(t);
+    if t.is_empty() {
+        return Err(format!("{s:?}: no setting number; {QUOTE_HINT}"));
+    }
+    if t.len() > 1 && t.starts_with('0') {
+        return Err(format!(
+            "{s:?}: a setting number with a leading zero; {QUOTE_HINT}"
+        ));
+    }
     let id: u16 = t
         .parse()
         .map_err(|_| format!("{s:?}: a setting is a number, `N` or `$N`"))?;
@@ -234,6 +250,29 @@ pub fn setting_line(info: &SettingInfo, raw: i64) -> String {
         info.name,
         info.unit
     )
+}
+
+/// What a write did: `$0 = 5.000 µs (was 2.500; step pulse width)`.
+pub fn written_line(info: &SettingInfo, raw: i64, was: i64) -> String {
+    format!(
+        "${} = {} {} (was {}; {})",
+        info.id,
+        format_value(info, raw),
+        info.unit,
+        format_value(info, was),
+        info.name
+    )
+}
+
+/// The settings a write of `id` is checked against by the controller
+/// (`Config::from_values`' cross-checks), for its refusal: what must hold.
+pub fn cross_check(id: u16) -> Option<&'static str> {
+    Some(match id {
+        30 | 31 => "$31 (the spindle speed at the least PWM) must stay below $30 (the speed at full PWM)",
+        0 | 205 | 200 => "the step pulse ($0) and the direction setup ($205) must fit within a tick ($200), a whole number of step timer counts",
+        110..=112 | 120..=122 | 201..=204 | 208 => "the planner must take the rates ($110-$112), accelerations ($120-$122), feed maximum ($201), jerk ($202), chord tolerance ($203), tangential share ($204) and smoothing ($208) together",
+        _ => return None,
+    })
 }
 
 /// How a homing cycle ended.
@@ -409,7 +448,14 @@ impl Session {
         // sent at start-up).
         let got = self
             .ask(&HostMsg::SetSetting { id, value }, timeout, pick, |_| {})?
-            .map_err(|c| refused(&format!("${id}={value}"), c))?;
+            .map_err(|c| {
+                let mut f = refused(&format!("${id}={value}"), c);
+                if let (ErrorCode::OutOfRange, Some(rule)) = (c, cross_check(id)) {
+                    f.message.push_str(": ");
+                    f.message.push_str(rule);
+                }
+                f
+            })?;
         let mut stored = None;
         if got != value {
             return Err(Failure::new(
@@ -467,6 +513,27 @@ mod tests {
         assert_eq!(parse_id("130"), Ok(130));
         assert!(parse_id("$1").unwrap_err().contains("no such setting"));
         assert!(parse_id("x").is_err());
+        // What a shell leaves of an unquoted `$100`, `$1`, `$`.
+        for bad in ["00", "$00", "05", "", "$", " $ "] {
+            let e = parse_id(bad).unwrap_err();
+            assert!(
+                e.contains("'$100'") && e.contains("drop the `$`"),
+                "{bad:?}: {e}"
+            );
+        }
+        assert_eq!(parse_id("0"), Ok(0));
+        assert_eq!(parse_id("$0"), Ok(0));
+    }
+
+    #[test]
+    fn a_write_says_what_it_wrote_and_what_was_there() {
+        let pulse = setting(0).unwrap();
+        let line = written_line(pulse, 5_000, 2_500);
+        assert!(line.starts_with("$0 = 5"), "{line}");
+        assert!(
+            line.contains(pulse.unit) && line.contains("(was 2.5"),
+            "{line}"
+        );
     }
 
     #[test]

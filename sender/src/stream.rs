@@ -14,7 +14,8 @@ use controller::settings::{Plan, CMD_CREDIT};
 use fuzzy_core::scheduler::SchedulerConfig;
 use link::client::{Connection, Hello, SILENCE};
 use link::{
-    AlarmCode, DeviceMsg, ErrorCode, HostMsg, MachineStatus, Motion, PlanEvent, Status, StoreResult,
+    AlarmCode, DeviceMsg, ErrorCode, HostMsg, MachineCmd, MachineStatus, Motion, PlanEvent, Status,
+    StoreResult,
 };
 
 use crate::actions::{Action, Effect, Operator, StopKind};
@@ -41,6 +42,11 @@ pub struct Options {
     pub check_settings: bool,
     /// An override to set before streaming, percent.
     pub initial_override: Option<u16>,
+    /// After the run, set the controller's override back to what it was
+    /// before [`Options::initial_override`] (a jog runs at its own feed,
+    /// as Grbl's jogs ignore the feed override, and leaves the override
+    /// of the programs as it found it).
+    pub restore_override: bool,
     /// Ask the controller to report every input of its planner (the
     /// scheduled feeds, checked against the host's schedule bit for bit,
     /// and the events; about 23 bytes a point back over the link).
@@ -58,6 +64,7 @@ impl Options {
             hello_wait: Duration::from_millis(500),
             check_settings: true,
             initial_override: None,
+            restore_override: false,
             reports: false,
         }
     }
@@ -264,8 +271,16 @@ pub struct Summary {
     pub mismatch_examples: Vec<(usize, f64, f64)>,
     /// Whether the tool ended exactly on the path's last point.
     pub ended_on_last_point: bool,
-    /// Go-backs of the link client.
+    /// The controller's hello was checked against the host's build
+    /// ([`SettingsCheck::Matched`]).
+    pub build_checked: bool,
+    /// Go-backs of the link client during the run.
     pub resends: u32,
+    /// The controller's underrun stops during the run (its status counts
+    /// them since power-up: the difference from the handshake's).
+    pub underruns: u32,
+    /// Frames the controller refused during the run (likewise).
+    pub bad_frames: u32,
     /// Refusals the controller reported (line noise, credit, sequence).
     pub refusals: u32,
     /// The controller's stop report, when a stop ended the run.
@@ -311,6 +326,7 @@ pub struct Session {
     t0: Instant,
     last_rx: Instant,
     raw_hello: Option<DeviceMsg>,
+    no_answer_hint: &'static str,
 }
 
 impl Session {
@@ -322,7 +338,15 @@ impl Session {
             t0: Instant::now(),
             last_rx: Instant::now(),
             raw_hello: None,
+            no_answer_hint:
+                "is it powered and running the firmware; are the port and baud rate right?",
         }
+    }
+
+    /// What the message for a controller that does not answer suggests
+    /// (by the kind of link: `transport::Target::no_answer_hint`).
+    pub fn set_no_answer_hint(&mut self, hint: &'static str) {
+        self.no_answer_hint = hint;
     }
 
     /// The link client (sequence numbers, credit).
@@ -389,8 +413,9 @@ impl Session {
                 return Err(Failure::new(
                     Exit::LinkLost,
                     format!(
-                        "no answer from the controller within {:.1} s (is it powered and running the firmware; are the port and baud rate right?)",
-                        timeout.as_secs_f64()
+                        "no answer from the controller within {:.1} s ({})",
+                        timeout.as_secs_f64(),
+                        self.no_answer_hint
                     ),
                 ));
             }
@@ -429,12 +454,26 @@ impl Session {
                 return Err(Failure::new(
                     Exit::LinkLost,
                     format!(
-                        "no answer from the controller within {:.1} s",
-                        timeout.as_secs_f64()
+                        "no answer from the controller within {:.1} s ({})",
+                        timeout.as_secs_f64(),
+                        self.no_answer_hint
                     ),
                 ));
             }
         }
+    }
+
+    /// Set the feed override (percent) and wait for the controller's
+    /// acknowledgement.
+    pub fn set_override(&mut self, percent: u16, timeout: Duration) -> Result<(), Failure> {
+        let ack = |m: &DeviceMsg| matches!(m, DeviceMsg::Ack { .. }).then_some(());
+        self.ask(&HostMsg::Override { percent }, timeout, ack, |_| {})?
+            .map_err(|code| {
+                Failure::new(
+                    Exit::Controller,
+                    format!("the controller refused the override {percent} % ({code:?})"),
+                )
+            })
     }
 
     /// The machine status (alarm, homing, spindle, coolant, inputs, the
@@ -566,11 +605,32 @@ impl Session {
         display: &mut dyn Display,
     ) -> Outcome {
         let mut run = Run::new(program, hs, opts);
-        let r = run.go(self, actions, display);
+        let resends0 = self.conn.client().resends();
+        let mut r = run.go(self, actions, display);
+        let before = hs.status.override_percent;
+        let changed = opts.initial_override.is_some_and(|p| p != before);
+        let lost = matches!(&r, Err(f) if f.exit == Exit::LinkLost);
+        if opts.restore_override && changed && !lost {
+            if let Err(f) = self.set_override(before, opts.link_timeout) {
+                let note = format!(
+                    "; the feed override could not be set back to {before} %: {}",
+                    f.message
+                );
+                match &mut r {
+                    Ok((_, m)) => m.push_str(&note),
+                    Err(e) => e.message.push_str(&note),
+                }
+            }
+        }
         let mut summary = run.summary;
         summary.elapsed = run.t_start.elapsed();
         summary.last_status = self.conn.client().last_status();
-        summary.resends = self.conn.client().resends();
+        summary.resends = self.conn.client().resends().wrapping_sub(resends0);
+        summary.build_checked = hs.settings == SettingsCheck::Matched;
+        if let Some(st) = summary.last_status {
+            summary.underruns = st.underruns.wrapping_sub(hs.status.underruns);
+            summary.bad_frames = st.bad_frames.wrapping_sub(hs.status.bad_frames);
+        }
         match r {
             Ok((exit, message)) => Outcome {
                 exit,
@@ -629,6 +689,13 @@ struct Run<'a> {
     machine_asked: bool,
     /// The last status.
     last_status: Status,
+    /// The most points of the program reached so far: progress shown
+    /// never goes back (a status can come before the report of the
+    /// machine command that began its path).
+    progress: u32,
+    /// The last machine command applied, while the path after it has not
+    /// begun (the controller at rest, waiting for it).
+    waiting_on: Option<MachineCmd>,
 }
 
 impl<'a> Run<'a> {
@@ -681,6 +748,8 @@ impl<'a> Run<'a> {
             alarm_refused: None,
             machine_asked: false,
             last_status: hs.status,
+            progress: 0,
+            waiting_on: None,
         }
     }
 
@@ -735,6 +804,15 @@ impl<'a> Run<'a> {
         Some(r.min(self.program.len() as u32))
     }
 
+    /// Whether the controller, at this status, had received every command
+    /// of ours up to the path's end, taken them all from its queue, and
+    /// passed every point on from its scheduler's lookahead.
+    fn consumed(&self, st: &Status) -> bool {
+        let after_end = self.end_seq.wrapping_add(1);
+        let received = st.next_seq.wrapping_sub(after_end) as i32 >= 0;
+        received && queued(st, self.credit_size) == 0 && st.points_held == 0
+    }
+
     /// The item with sequence number `seq` and its index.
     fn item(&self, seq: u32) -> Option<(usize, Item)> {
         let k = seq.wrapping_sub(self.first_point_seq) as usize;
@@ -780,12 +858,24 @@ impl<'a> Run<'a> {
     fn view(&self, s: &Session, stopping: bool) -> View {
         let c = s.conn.client();
         let st = c.last_status().unwrap_or_default();
-        let reached = self.reached(&st);
+        let credit = (c.window_end().wrapping_sub(c.send_next()) as i32).max(0) as u32;
+        self.view_of(st, credit, stopping)
+    }
+
+    fn view_of(&self, st: Status, credit: u32, stopping: bool) -> View {
+        let reached = self.reached(&st).map(|r| r.max(self.progress));
         let r = reached.unwrap_or(0);
+        let waiting = match self.waiting_on {
+            Some(MachineCmd::Spindle { dir, .. }) if dir != link::SpindleDir::Off => {
+                Some("Spin-up")
+            }
+            Some(MachineCmd::Dwell { .. }) => Some("Dwell"),
+            _ => None,
+        };
         View {
             status: st,
             queued: queued(&st, self.credit_size),
-            credit: (c.window_end().wrapping_sub(c.send_next()) as i32).max(0) as u32,
+            credit,
             reached,
             points: self.program.len() as u32,
             done_mm: match r {
@@ -797,6 +887,7 @@ impl<'a> Run<'a> {
             elapsed: self.t_start.elapsed(),
             hold_asked: self.operator.hold,
             stopping,
+            waiting,
         }
     }
 
@@ -1026,8 +1117,11 @@ impl<'a> Run<'a> {
                 event: PlanEvent::EndPath,
                 ..
             } if self.started => self.end_planned = true,
-            DeviceMsg::Applied { seq, point, .. } => {
+            DeviceMsg::Applied {
+                seq, point, cmd, ..
+            } => {
                 if let Some((_, Item::Machine { index })) = self.item(seq) {
+                    self.waiting_on = Some(cmd);
                     self.started = true;
                     self.summary.machine_applied += 1;
                     let want = self.applied_at.get(index).copied().unwrap_or(0);
@@ -1046,9 +1140,16 @@ impl<'a> Run<'a> {
             }
             DeviceMsg::Status(st) => {
                 self.last_status = st;
+                // The new path's count may end where the previous one's did
+                // (statuses can miss every count between): a status with
+                // every command of ours taken and the lookahead empty also
+                // says it began, since the controller takes nothing after a
+                // path's first point until that point is in the planner.
+                let consumed = self.consumed(&st);
                 if let Some(g) = self.segment.as_mut() {
-                    if st.point_reached != g.stale {
+                    if st.point_reached != g.stale || consumed {
                         g.begun = true;
+                        self.waiting_on = None;
                     }
                 }
                 if st.point_reached != self.stale_reached {
@@ -1058,6 +1159,7 @@ impl<'a> Run<'a> {
                 let t = self.t_start.elapsed().as_secs_f64();
                 let r = self.reached(&st).unwrap_or(0);
                 self.eta.update(t, r, st.override_percent, counts);
+                self.progress = self.progress.max(r);
             }
             DeviceMsg::Error { code, expected_seq } => {
                 self.summary.refusals += 1;
@@ -1369,6 +1471,65 @@ mod tests {
         assert_eq!(r.reached(&new), Some(3));
         let fresh = Run::new(&p, &handshake(Status::default()), &o);
         assert_eq!(fresh.reached(&Status::default()), Some(0));
+    }
+
+    #[test]
+    fn a_path_after_a_machine_command_ending_at_the_previous_count_is_seen_to_begin() {
+        let dir = std::env::temp_dir().join(format!("sender-stream-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("dwell.ngc");
+        std::fs::write(&f, "G21 G90\nG1 X1 F1000\nG4 P0.1\nG1 X2\n").unwrap();
+        let p = crate::program::load(&f.to_string_lossy(), &SimConfig::default()).unwrap();
+        std::fs::remove_dir_all(&dir).ok();
+        let o = Options::new(crate::program::scheduler_config(3000.0, 60.0).unwrap());
+        let mut r = run(&p, &o);
+        r.end_seq = 11 + r.items.len() as u32;
+        // The first path ends at count 2 (start and X1), the dwell applies.
+        let applied = DeviceMsg::Applied {
+            seq: 13,
+            cmd: link::MachineCmd::Dwell { ms: 100 },
+            point: 2,
+            tick: 0,
+        };
+        r.on_message(&applied, None).unwrap();
+        let waiting = Status {
+            point_reached: 2,
+            next_seq: r.end_seq + 1,
+            window_end: r.end_seq + 1 + CMD_CREDIT - 1,
+            points_held: 1,
+            ..Status::default()
+        };
+        r.on_message(&DeviceMsg::Status(waiting), None).unwrap();
+        assert_eq!(r.reached(&waiting), Some(2), "the dwell runs");
+        assert_eq!(r.view_of(waiting, 0, false).waiting, Some("Dwell"));
+        // The second path (X1 again, X2) also ends at count 2.
+        let done = Status {
+            points_held: 0,
+            window_end: r.end_seq + 1 + CMD_CREDIT,
+            ..waiting
+        };
+        r.on_message(&DeviceMsg::Status(done), None).unwrap();
+        assert_eq!(r.reached(&done), Some(3));
+        assert_eq!(r.view_of(done, 0, false).waiting, None);
+    }
+
+    #[test]
+    fn progress_shown_never_goes_back() {
+        let p = program();
+        let o = Options::new(crate::program::scheduler_config(3000.0, 60.0).unwrap());
+        let mut r = run(&p, &o);
+        let at = |point_reached| Status {
+            point_reached,
+            motion: Motion::Running,
+            ..Status::default()
+        };
+        r.on_message(&DeviceMsg::Status(at(50)), None).unwrap();
+        let v = r.view_of(at(50), 0, false);
+        assert_eq!(v.reached, Some(50));
+        r.on_message(&DeviceMsg::Status(at(48)), None).unwrap();
+        let w = r.view_of(at(48), 0, false);
+        assert_eq!(w.reached, Some(50));
+        assert_eq!(w.done_mm, v.done_mm);
     }
 
     #[test]

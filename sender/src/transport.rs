@@ -51,6 +51,22 @@ impl std::fmt::Display for Target {
     }
 }
 
+impl Target {
+    /// What may be wrong when the controller does not answer, for this
+    /// kind of link.
+    pub fn no_answer_hint(&self) -> &'static str {
+        match self {
+            Target::Serial { .. } => {
+                "is it powered and running the firmware; are the port and baud rate right?"
+            }
+            Target::Tcp(_) | Target::Unix(_) => {
+                "the port is busy or nothing serves it: QEMU serves one client at a time (is another fuzzy-send connected?), and the firmware must be running there"
+            }
+            Target::Sim { .. } => "the simulated controller stopped",
+        }
+    }
+}
+
 /// The two halves of an open link.
 pub struct Opened {
     /// Bytes to the controller.

@@ -37,6 +37,9 @@ pub struct View {
     pub hold_asked: bool,
     /// A stop is under way.
     pub stopping: bool,
+    /// What the controller waits for at rest between two paths, shown
+    /// instead of its `Idle` (`Spin-up` after M3/M4, `Dwell`).
+    pub waiting: Option<&'static str>,
 }
 
 /// The motion state as shown.
@@ -79,6 +82,8 @@ impl View {
         let mut state = state_name(s.motion).to_string();
         if self.stopping {
             state = "Stop".into();
+        } else if let (Some(w), Motion::Idle) = (self.waiting, s.motion) {
+            state = w.into();
         } else if self.hold_asked && s.motion != Motion::Held {
             state.push('>');
             state.push_str("Hold");
@@ -92,12 +97,16 @@ impl View {
             self.queued,
             self.credit,
         );
-        match self.reached {
-            Some(r) => {
-                let _ = write!(out, "  pt {r}/{}", self.points);
+        // Without a program (`monitor`) there is no count to show it of.
+        match (self.reached, self.points) {
+            (Some(r), 0) => {
+                let _ = write!(out, "  pt {r}");
             }
-            None => {
-                let _ = write!(out, "  pt -/{}", self.points);
+            (Some(r), n) => {
+                let _ = write!(out, "  pt {r}/{n}");
+            }
+            (None, n) => {
+                let _ = write!(out, "  pt -/{n}");
             }
         }
         match self.eta {
@@ -222,6 +231,7 @@ mod tests {
             elapsed: Duration::from_millis(2500),
             hold_asked: false,
             stopping: false,
+            waiting: None,
         };
         let l = v.line();
         for want in [
@@ -253,6 +263,21 @@ mod tests {
         assert!(held.line().starts_with("Run>Hold"), "{}", held.line());
         assert!(held.line().contains("pt -/2001") && held.line().ends_with("ETA -"));
         assert_eq!(clock(Duration::from_secs(3725)), "1:02:05");
+        // At rest for a spin-up: said so, not `Idle`.
+        let spin = View {
+            status: Status::default(),
+            waiting: Some("Spin-up"),
+            ..v
+        };
+        assert!(spin.line().starts_with("Spin-up"), "{}", spin.line());
+        // `monitor`: no program, no count of points.
+        let monitor = View {
+            reached: Some(1),
+            points: 0,
+            ..View::default()
+        };
+        assert!(monitor.line().contains("pt 1  "), "{}", monitor.line());
+        assert!(!monitor.line().contains("1/0"), "{}", monitor.line());
     }
 
     #[test]

@@ -144,9 +144,17 @@ fn the_binarys_machine_commands_and_their_exit_codes() {
     assert!(out.starts_with("$22=0 (homing"), "{out}");
     let (code, out, err) = fuzzy_send(&["settings", "set", "120", "750"]);
     assert_eq!(code, Some(0), "{err}");
-    assert!(out.starts_with("$120=750 "), "{out}");
+    let was = controller::config::Config::DEFAULT.by_id(120).unwrap();
+    assert!(
+        out.starts_with(&format!("$120 = 750 mm/s² (was {was}; ")),
+        "{out}"
+    );
     assert!(err.contains("saved to flash"), "{err}");
-    // Checked before connecting: exit 2.
+    // Checked before connecting: exit 2. An unquoted `$100` arrives as
+    // `00`: refused, with the quoting hint, not taken as `$0`.
+    let (code, _, err) = fuzzy_send(&["settings", "set", "00", "5"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("'$100'"), "{err}");
     let (code, _, err) = fuzzy_send(&["settings", "set", "110", "0"]);
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("range"), "{err}");
@@ -155,6 +163,14 @@ fn the_binarys_machine_commands_and_their_exit_codes() {
     // Refused by the controller: exit 5.
     let (code, _, err) = fuzzy_send(&["settings", "set", "31", "1000"]);
     assert_eq!(code, Some(5), "{err}");
+    assert!(err.contains("must stay below $30"), "{err}");
+    // The tick rate, written as it runs: in force, no reset pending.
+    let (code, _, err) = fuzzy_send(&["settings", "set", "200", "1000"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(err.contains("in force") && !err.contains("reset"), "{err}");
+    let (code, _, err) = fuzzy_send(&["settings", "set", "200", "2000"]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(err.contains("takes effect at the next reset"), "{err}");
     let (code, _, err) = fuzzy_send(&["home"]);
     assert_eq!(code, Some(5), "{err}");
     assert!(err.contains("$22=0"), "{err}");
@@ -187,4 +203,22 @@ fn the_binarys_machine_commands_and_their_exit_codes() {
     let (code, _, err) = fuzzy_send(&["jog", "--log", "X-2", "Y-1", "F1200"]);
     assert_eq!(code, Some(0), "{err}");
     assert!(err.contains("sending jog: 2 points, 2.2 mm"), "{err}");
+}
+
+/// A TCP port that accepts and never answers (as QEMU's port does for a
+/// second client while the first holds it): link lost, exit 4, and the
+/// message speaks of a busy port, not of power and baud rates.
+#[test]
+fn a_silent_tcp_port_is_said_to_be_busy() {
+    let l = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = l.local_addr().unwrap().to_string();
+    let held = std::thread::spawn(move || l.accept().map(|c| c.0));
+    let out = Command::new(env!("CARGO_BIN_EXE_fuzzy-send"))
+        .args(["status", "--tcp", &addr, "--link-timeout", "1"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(4), "{err}");
+    assert!(err.contains("busy") && !err.contains("baud"), "{err}");
+    drop(held.join());
 }

@@ -652,3 +652,148 @@ fn spindle_and_coolant_words_take_effect_in_order_at_their_points() {
     let text = sender::cli::summary_text(&o).join("\n");
     assert!(text.contains("5 spindle/coolant commands sent"), "{text}");
 }
+
+/// Stops the run once `limit` has passed: a run that never ends shows as
+/// a user stop instead of a hung test.
+struct Deadline {
+    limit: Duration,
+    fired: bool,
+}
+
+impl Actions for Deadline {
+    fn poll(&mut self, elapsed: Duration, _: u32) -> Vec<Action> {
+        if elapsed > self.limit && !self.fired {
+            self.fired = true;
+            return vec![Action::Stop];
+        }
+        Vec::new()
+    }
+}
+
+/// `n` moves along X from `x0` mm, 1 mm each, as G-code lines.
+fn moves(x0: u32, n: u32) -> String {
+    (1..=n).map(|k| format!("G1 X{} F1000\n", x0 + k)).collect()
+}
+
+/// Programs with machine commands between, before and after their moves,
+/// the path after a command ending at the point count the previous path
+/// ended at (which the status then shows throughout): each ends with exit
+/// 0 within a bounded time, with statuses as far apart as the binary's.
+#[test]
+fn programs_with_machine_commands_anywhere_run_to_their_end() {
+    let mut programs = Vec::new();
+    for cmd in ["G4 P0.1", "M3 S1000", "M8"] {
+        for n in 1..=3 {
+            for m in 1..=3 {
+                programs.push(format!("{}{cmd}\n{}", moves(0, n), moves(n, m)));
+            }
+        }
+        programs.push(format!("{cmd}\n{}", moves(0, 2)));
+        programs.push(format!("{}{cmd}\n", moves(0, 2)));
+        programs.push(format!("{cmd}\n{}{cmd}\n", moves(0, 1)));
+    }
+    for (n, m) in [(1, 1), (2, 2), (1, 3), (3, 1)] {
+        programs.push(format!(
+            "{}G4 P0.05\nM8\nM3 S1000\n{}M9\nM5\n",
+            moves(0, n),
+            moves(n, m)
+        ));
+    }
+    // Back to where the command was, and back to the start.
+    programs.push("G1 X1 F1000\nG1 X2\nG4 P0.1\nG1 X3\nG1 X2\n".into());
+    programs.push("G1 X1 F1000\nG4 P0.1\nG1 X0\n".into());
+    let dir = temp("commands");
+    std::fs::create_dir_all(&dir).unwrap();
+    let h = sim::start(20.0).unwrap();
+    let mut o = opts();
+    o.reports = false;
+    o.status_period = Duration::from_millis(200);
+    for (k, body) in programs.iter().enumerate() {
+        let f = dir.join(format!("p{k}.ngc"));
+        std::fs::write(&f, format!("G21 G90\n{body}")).unwrap();
+        let p = load(&f.to_string_lossy());
+        let mut s = session(&h, Recorder::none());
+        let hs = s.handshake(&o).unwrap();
+        let mut limit = Deadline {
+            limit: Duration::from_secs(10),
+            fired: false,
+        };
+        let t = Instant::now();
+        let out = s.run(&p, &hs, &o, &mut limit, &mut Quiet);
+        assert_eq!(out.exit, Exit::Done, "{body}: {}", out.message);
+        assert!(t.elapsed() < Duration::from_secs(10), "{body}");
+        assert_eq!(out.summary.machine_applied as usize, p.events.len());
+        assert!(out.summary.ended_on_last_point, "{body}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The summary's counters are the run's own: frames refused and
+/// underruns before it (the controller counts them since power-up) are
+/// not the run's.
+#[test]
+fn the_summary_counts_this_run_only() {
+    let h = sim::start(10.0).unwrap();
+    let raw = h.connect().unwrap();
+    let mut noise = raw.try_clone().unwrap();
+    let mut s = Session::new(
+        Box::new(raw.try_clone().unwrap()),
+        Box::new(raw),
+        Recorder::none(),
+    );
+    let o = opts();
+    s.handshake(&o).unwrap();
+    // Two frames of garbage (delimited by 0), refused by the controller.
+    noise.write_all(&[1, 2, 3, 0, 9, 9, 9, 9, 0]).unwrap();
+    let before = s.status_within(T, |_| {}).unwrap();
+    assert!(before.bad_frames >= 1, "{before:?}");
+    let p = load("infinity");
+    let hs = s.handshake(&o).unwrap();
+    let out = s.run(&p, &hs, &o, &mut NoActions, &mut Quiet);
+    assert_done(&out, &p);
+    assert_eq!(out.summary.bad_frames, 0);
+    assert_eq!(out.summary.resends, 0);
+    assert!(out.summary.last_status.unwrap().bad_frames >= 1);
+    let text = sender::cli::summary_text(&out).join("\n");
+    assert!(text.contains("this run: link 0 resends"), "{text}");
+    assert!(text.contains("0 bad frames"), "{text}");
+}
+
+/// As in Grbl: a feed override lasts from one program to the next, and a
+/// jog runs at its own feed whatever the override, which it leaves as it
+/// found it.
+#[test]
+fn an_override_lasts_across_programs_and_jogs_ignore_it() {
+    let h = sim::start(4.0).unwrap();
+    let p = load("infinity");
+    let mut s = session(&h, Recorder::none());
+    let mut o = opts();
+    o.initial_override = Some(150);
+    let hs = s.handshake(&o).unwrap();
+    assert_done(&s.run(&p, &hs, &o, &mut NoActions, &mut Quiet), &p);
+    // The next program finds it in force.
+    let o = opts();
+    let hs = s.handshake(&o).unwrap();
+    assert_eq!(hs.status.override_percent, 150);
+    // A jog at F1000: at 100 % while it runs, 150 % again after.
+    let rec = temp("jog-override.jsonl");
+    let mut s = session(&h, Recorder::create(&rec).unwrap());
+    let mut o = opts();
+    o.initial_override = Some(100);
+    o.restore_override = true;
+    let hs = s.handshake(&o).unwrap();
+    let j = Jog::parse(&["X-5", "F1000"]).unwrap();
+    let jp = program::jog(&j, hs.status.pos_mm.map(bits_f64), &SimConfig::default()).unwrap();
+    let out = s.run(&jp, &hs, &o, &mut NoActions, &mut Quiet);
+    s.finish_record().unwrap();
+    assert_done(&out, &jp);
+    let st = statuses(&received(&rec));
+    let moving: Vec<&Status> = st.iter().filter(|s| s.motion == Motion::Running).collect();
+    assert!(!moving.is_empty());
+    for m in moving {
+        assert_eq!(m.override_percent, 100, "{m:?}");
+        assert!(bits_f64(m.feed_mm_per_min) <= 1000.0 + 1e-6, "{m:?}");
+    }
+    assert_eq!(s.status_within(T, |_| {}).unwrap().override_percent, 150);
+    std::fs::remove_file(&rec).ok();
+}

@@ -1252,8 +1252,21 @@ fn settings_are_read_and_written_over_the_link() {
         rep.accel_mm_s2
     );
     assert!(p.tang_acc > 0.9, "the path used the new limit: {p:?}");
+    // The tick rate takes effect at a reset: pending once changed, not
+    // once written back to the rate running.
+    let restart_pending = |fw: &mut Firmware, want: bool| {
+        let deadline = std::time::Instant::now() + Duration::from_secs(5);
+        while fw.machine_status().restart_needed != want {
+            assert!(std::time::Instant::now() < deadline, "restart {want}");
+            fw.pump(Duration::from_millis(20));
+        }
+    };
+    assert_eq!(fw.set_setting(200, 2000), Ok(2000));
+    restart_pending(&mut fw, true);
+    assert_eq!(fw.set_setting(200, 1000), Ok(1000));
+    restart_pending(&mut fw, false);
     println!(
-        "settings: read, written (ROM: WriteFailed, in force), refused out of range, unknown and while moving; steps/mm and pulse width written at rest in force without a reset (no lag, no late plan); the path ran at 500 mm/s² per axis, replay bit-exact with the settings read back"
+        "settings: read, written (ROM: WriteFailed, in force), refused out of range, unknown and while moving; steps/mm and pulse width written at rest in force without a reset (no lag, no late plan); the path ran at 500 mm/s² per axis, replay bit-exact with the settings read back; the tick rate pending a reset once changed, not once written back"
     );
 }
 
