@@ -1479,7 +1479,7 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let f = dir.join("dwell.ngc");
         std::fs::write(&f, "G21 G90\nG1 X1 F1000\nG4 P0.1\nG1 X2\n").unwrap();
-        let p = crate::program::load(&f.to_string_lossy(), &SimConfig::default()).unwrap();
+        let p = crate::program::load(&f.to_string_lossy(), &GcodeSettings::default()).unwrap();
         std::fs::remove_dir_all(&dir).ok();
         let o = Options::new(crate::program::scheduler_config(3000.0, 60.0).unwrap());
         let mut r = run(&p, &o);

@@ -783,7 +783,12 @@ fn an_override_lasts_across_programs_and_jogs_ignore_it() {
     o.restore_override = true;
     let hs = s.handshake(&o).unwrap();
     let j = Jog::parse(&["X-5", "F1000"]).unwrap();
-    let jp = program::jog(&j, hs.status.pos_mm.map(bits_f64), &SimConfig::default()).unwrap();
+    let jp = program::jog(
+        &j,
+        hs.status.pos_mm.map(bits_f64),
+        &GcodeSettings::default(),
+    )
+    .unwrap();
     let out = s.run(&jp, &hs, &o, &mut NoActions, &mut Quiet);
     s.finish_record().unwrap();
     assert_done(&out, &jp);
