@@ -30,6 +30,7 @@ pub mod exit;
 pub mod machine;
 pub mod program;
 pub mod record;
+pub mod serve;
 pub mod sim;
 pub mod stream;
 pub mod terminal;
