@@ -21,12 +21,14 @@
 //! | [`sim`] | the controller on the host (`controller::sim`) behind a byte stream |
 //! | [`record`] | the JSON-lines record of a run |
 //! | [`exit`] | exit codes |
+//! | [`grbl`] | a Grbl 1.1 front's protocol layer (sans-IO): input, commands, codes, reports, settings |
 //! | [`cli`] | the command line |
 
 pub mod actions;
 pub mod cli;
 pub mod display;
 pub mod exit;
+pub mod grbl;
 pub mod machine;
 pub mod program;
 pub mod record;
