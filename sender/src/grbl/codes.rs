@@ -529,6 +529,22 @@ pub fn error_of_interp(message: &str) -> ErrorCode {
     }
 }
 
+/// [`error_of_interp`] and the text for its `[MSG:]`: the interpreter's
+/// own line count (`line N: `), which means nothing to the sender, left
+/// out.
+pub fn interp_error(message: &str) -> (ErrorCode, String) {
+    let text = message
+        .strip_prefix("line ")
+        .and_then(|rest| {
+            let digits = rest.bytes().take_while(u8::is_ascii_digit).count();
+            rest.get(digits..)
+                .filter(|_| digits > 0)
+                .and_then(|r| r.strip_prefix(": "))
+        })
+        .unwrap_or(message);
+    (error_of_interp(message), text.to_string())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -649,5 +665,12 @@ mod tests {
         for (text, code) in cases {
             assert_eq!(error_of_interp(text), code, "{text}");
         }
+        assert_eq!(
+            interp_error("line 12: G1 appears twice"),
+            (GcodeModalGroupViolation, "G1 appears twice".to_string())
+        );
+        assert_eq!(interp_error("line x: y").1, "line x: y");
+        assert_eq!(interp_error("line 3").1, "line 3");
+        assert_eq!(interp_error("division by zero").1, "division by zero");
     }
 }

@@ -35,7 +35,7 @@
 //! | | [`codes::Alarm`] | alarms 1-10 (10: grblHAL's e-stop), same methods, `ALARM:N` |
 //! | | [`codes::Feedback`] | Grbl's `[MSG:]` texts |
 //! | | [`codes::alarm_of`] | `link::AlarmCode` → [`codes::GrblAlarm`] (number + message), total |
-//! | | [`codes::error_of_interp`] | the interpreter's error text → error number |
+//! | | [`codes::error_of_interp`], [`codes::interp_error`] | the interpreter's error text → error number (and the text for `[MSG:]`) |
 //! | [`report`] | `welcome`, `ok`, `error`, `alarm`, `feedback`, `message`, `error_with_message`, `help` | one response line each |
 //! | | `setting`, `startup_line`, `startup_result` | `$n=v`, `$Nn=line`, `>line:ok` |
 //! | | `version`, `options` ([`report::BuildInfo`], [`report::Options`]) | `[VER:]`, `[OPT:]` for `$I` |
