@@ -167,6 +167,38 @@ pub struct ToolData {
     pub length_mm: f64,
 }
 
+/// The modes in force ([`Interp::modes`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Modes {
+    /// The motion mode as its G number (1, 2, 3, 81 …; 38.2 …), `None`
+    /// after G80 or before any.
+    pub motion: Option<f64>,
+    /// 17, 18 or 19.
+    pub plane: u32,
+    /// G20.
+    pub inches: bool,
+    /// G90.
+    pub absolute: bool,
+    /// G93.
+    pub inverse_time: bool,
+    /// The coordinate system, 0 for G54 … 8 for G59.3.
+    pub coord: usize,
+    /// The tool in the spindle.
+    pub tool: u32,
+    /// F, program units per minute.
+    pub feed: f64,
+    /// S, rpm.
+    pub rpm: f64,
+    /// M3, M4 or M5.
+    pub spindle: crate::toolpath::SpindleDir,
+    /// M8.
+    pub flood: bool,
+    /// M7.
+    pub mist: bool,
+    /// The tool length offset along Z, mm.
+    pub tool_length_mm: f64,
+}
+
 /// Where [`Interp::run_with`] stopped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Stop {
@@ -569,6 +601,41 @@ impl Interp {
         Ok(true)
     }
 
+    /// The modes in force, as a status report shows them (Grbl's `$G`).
+    pub fn modes(&self) -> Modes {
+        Modes {
+            motion: self.motion.map(|m| m.code() / 10.0),
+            plane: match self.plane {
+                Plane::Xy => 17,
+                Plane::Zx => 18,
+                Plane::Yz => 19,
+            },
+            inches: self.units != 1.0,
+            absolute: self.absolute,
+            inverse_time: self.feed_mode == FeedMode::InverseTime,
+            coord: self.coord,
+            tool: self.current_tool,
+            feed: self.feed.unwrap_or(0.0),
+            rpm: self.rpm,
+            spindle: self.out.spindle(),
+            flood: self.out.coolant().0,
+            mist: self.out.coolant().1,
+            tool_length_mm: self.tlo[2],
+        }
+    }
+
+    /// Numbered parameter `n` (0 outside the table).
+    pub fn param(&self, n: u32) -> f64 {
+        self.params.get(n as usize).copied().unwrap_or(0.0)
+    }
+
+    /// What is added to a program coordinate to make the machine
+    /// coordinate (work offset, G92 and tool length), X Y Z, mm: Grbl's
+    /// `WCO`.
+    pub fn work_offset_mm(&self) -> [f64; 3] {
+        [self.offset(0), self.offset(1), self.offset(2)]
+    }
+
     /// Where the tool is, machine coordinates, mm.
     pub fn position_mm(&self) -> [f64; 3] {
         [self.pos[0], self.pos[1], self.pos[2]]
@@ -770,6 +837,29 @@ impl Interp {
             f.pc = self.files[0].lines.len();
         }
         self.out.all_off(self.line);
+    }
+
+    /// A live program is abandoned (Grbl's soft reset, the machine stopped
+    /// where `pos_mm` says): lines of an open structure, calls, curve
+    /// blocks and compensation dropped, the modes reset as at a program
+    /// end but the motion mode G0 and no feed (Grbl's `gc_init`; offsets,
+    /// parameters and tools kept). Spindle and coolant are the machine's:
+    /// the caller knows whether the reset stopped them.
+    pub fn abort(&mut self, pos_mm: [f64; 3]) {
+        self.pending.clear();
+        self.opened = Opened::default();
+        self.nurbs = None;
+        self.nurbs6 = None;
+        self.comp = Comp::default();
+        self.probe = None;
+        self.end_of_program();
+        self.motion = Some(Motion::Rapid);
+        self.feed = None;
+        self.units = 1.0;
+        self.tlo = [0.0; 9];
+        self.spline_prev = None;
+        self.out = Sink::new(pos_mm, self.s.limits.max_points, self.s.chord_tolerance_mm);
+        self.pos[..3].copy_from_slice(&pos_mm);
     }
 
     /// Apply a probing move's outcome (LinuxCNC's `convert_probe`, Grbl's

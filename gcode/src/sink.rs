@@ -100,6 +100,16 @@ impl Sink {
         self.lines.push(0);
     }
 
+    /// The spindle as the program left it.
+    pub fn spindle(&self) -> SpindleDir {
+        self.spindle
+    }
+
+    /// Flood and mist coolant as the program left them.
+    pub fn coolant(&self) -> (bool, bool) {
+        (self.flood, self.mist)
+    }
+
     /// Points made so far, handed out or not.
     pub fn total_points(&self) -> usize {
         self.base + self.points.len()

@@ -331,6 +331,11 @@ impl Client {
         self.outbox.len()
     }
 
+    /// The sequence number the next queued command will get.
+    pub fn queue_end(&self) -> u32 {
+        self.base.wrapping_add(self.outbox.len() as u32)
+    }
+
     /// The next sequence number to transmit.
     pub fn send_next(&self) -> u32 {
         self.send_next

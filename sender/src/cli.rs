@@ -127,6 +127,11 @@ impl LinkArgs {
 pub enum Command {
     /// Send a program and watch it run.
     Send(SendArgs),
+    /// Speak Grbl 1.1 to the senders CNC users run (cncjs, bCNC, Universal
+    /// G-Code Sender, gSender, Candle) on a pseudo-terminal and/or a TCP
+    /// port, driving the controller: G-code interpreted live, real-time
+    /// commands, `$` settings, status reports. Until Ctrl-C.
+    Serve(ServeArgs),
     /// Jog (Grbl's `$J=`): one straight move from where the tool is, given
     /// as G-code words, relative unless `G90`: `jog X10 Y-2.5 F1000`,
     /// `jog G90 Z5 F300`. Watched as `send`; Ctrl-C or Esc cancels it
@@ -191,6 +196,29 @@ pub enum SettingsAction {
         /// In the setting's unit (`80.5` steps/mm; decimals as listed).
         value: String,
     },
+}
+
+/// `serve`.
+#[derive(Args, Debug)]
+pub struct ServeArgs {
+    /// A symlink to the pseudo-terminal, for the sender's port list
+    /// (e.g. /tmp/ttyFUZZY; replaced if it is a symlink already).
+    #[arg(long, value_name = "PATH")]
+    pub pty_link: Option<PathBuf>,
+    /// No pseudo-terminal (TCP only).
+    #[arg(long)]
+    pub no_pty: bool,
+    /// Also listen for a sender on this TCP port of 127.0.0.1 (bCNC, UGS
+    /// and gSender connect over TCP too).
+    #[arg(long, value_name = "PORT")]
+    pub grbl_tcp: Option<u16>,
+    /// A TOML file whose `[gcode]` table sets how G-code is read.
+    #[arg(long, value_name = "TOML")]
+    pub config: Option<PathBuf>,
+    /// Work offsets, G28/G30 and G92 kept across restarts in this file
+    /// (LinuxCNC's `.var` format); overrides `gcode.var_file`.
+    #[arg(long, value_name = "PATH")]
+    pub var_file: Option<PathBuf>,
 }
 
 /// `send`.
@@ -274,6 +302,7 @@ fn dispatch(cli: Cli) -> Result<Exit, Failure> {
     let link_timeout = cli.link.link_timeout()?;
     match cli.command {
         Command::Send(a) => send(a, &target, link_timeout),
+        Command::Serve(a) => serve(a, &target, link_timeout),
         Command::Jog(a) => jog(a, &target, link_timeout),
         Command::Status { json } => status(&target, link_timeout, json),
         Command::Monitor { period } => monitor(&target, link_timeout, period),
@@ -752,6 +781,36 @@ fn send(a: SendArgs, target: &Target, link_timeout: Duration) -> Result<Exit, Fa
             return program::load(&file, &c).map_err(|e| Failure::new(Exit::Input, e.to_string()));
         }
         Ok(program)
+    })
+}
+
+fn serve(a: ServeArgs, target: &Target, link_timeout: Duration) -> Result<Exit, Failure> {
+    let mut gcode = match &a.config {
+        Some(p) => GcodeSettings::read_config_file(p)
+            .map_err(|e| Failure::new(Exit::Input, format!("{e:#}")))?,
+        None => GcodeSettings::default(),
+    };
+    if a.var_file.is_some() {
+        gcode.var_file = a.var_file.clone();
+    }
+    let (s, _sim) = connect(target, Recorder::none())?;
+    let mut opts = base_options(link_timeout)?;
+    opts.check_settings = false;
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let flag = stop.clone();
+    ctrlc::set_handler(move || flag.store(true, std::sync::atomic::Ordering::Relaxed))
+        .map_err(|e| Failure::new(Exit::Error, format!("Ctrl-C handler: {e}")))?;
+    let serve_opts = crate::serve::ServeOptions {
+        no_pty: a.no_pty,
+        pty_link: a.pty_link,
+        tcp_port: a.grbl_tcp,
+        gcode,
+    };
+    crate::serve::serve(s, &opts, serve_opts, stop, |ports| {
+        for p in ports {
+            say(&format!("Grbl 1.1 front on {p}"));
+        }
+        say("connect a sender (cncjs, bCNC, UGS, gSender) there; Ctrl-C to stop");
     })
 }
 

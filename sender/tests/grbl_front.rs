@@ -1,0 +1,238 @@
+//! The Grbl 1.1 front against the whole controller on the host
+//! (`sender::sim`, the firmware's code), without a sender: what a Grbl
+//! sender sends, byte for byte, and what it must get back.
+
+use std::time::{Duration, Instant};
+
+use gcode_interp::GcodeSettings;
+use sender::program;
+use sender::record::Recorder;
+use sender::serve::front::Front;
+use sender::sim::{self, SimHandle};
+use sender::stream::{Options, Session};
+
+struct Rig {
+    front: Front,
+    out: String,
+    _sim: SimHandle,
+}
+
+fn rig(speed: f64) -> Rig {
+    let h = sim::start(speed).unwrap();
+    let s = h.connect().unwrap();
+    let mut session = Session::new(
+        Box::new(s.try_clone().unwrap()),
+        Box::new(s),
+        Recorder::none(),
+    );
+    let mut o = Options::new(program::scheduler_config(5000.0, 60.0).unwrap());
+    o.link_timeout = Duration::from_secs(3);
+    o.hello_wait = Duration::from_millis(300);
+    o.check_settings = false;
+    let hs = session.handshake(&o).unwrap();
+    let feed_max = hs.feed_max_mm_per_min();
+    let mut front = Front::new(
+        session,
+        hs.status,
+        hs.machine,
+        hs.credit_size,
+        GcodeSettings::default(),
+        feed_max,
+    )
+    .unwrap();
+    front.connected();
+    Rig {
+        front,
+        out: String::new(),
+        _sim: h,
+    }
+}
+
+impl Rig {
+    fn send(&mut self, bytes: &[u8]) {
+        self.front.on_bytes(bytes).unwrap();
+    }
+
+    /// Poll until `done` holds for what came back since the last take, or
+    /// the timeout; what came back.
+    fn until(&mut self, timeout: Duration, done: impl Fn(&str) -> bool) -> String {
+        let t0 = Instant::now();
+        loop {
+            self.front.poll().unwrap();
+            self.out.push_str(&self.front.take_output());
+            if done(&self.out) {
+                return std::mem::take(&mut self.out);
+            }
+            assert!(
+                t0.elapsed() < timeout,
+                "timed out; got so far: {:?}",
+                self.out
+            );
+        }
+    }
+
+    /// A status report.
+    fn status(&mut self) -> String {
+        self.send(b"?");
+        let r = self.until(Duration::from_secs(2), |o| o.contains('>'));
+        let s = r.find('<').unwrap();
+        let e = r[s..].find('>').unwrap();
+        r[s..s + e + 1].to_string()
+    }
+
+    /// Poll until the status reads Idle.
+    fn idle(&mut self, timeout: Duration) -> String {
+        let t0 = Instant::now();
+        loop {
+            let s = self.status();
+            if s.starts_with("<Idle") {
+                return s;
+            }
+            assert!(t0.elapsed() < timeout, "not idle: {s}");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+}
+
+fn count(s: &str, what: &str) -> usize {
+    s.matches(what).count()
+}
+
+#[test]
+fn the_welcome_and_build_info_are_what_senders_look_for() {
+    let mut r = rig(10.0);
+    let w = r.until(Duration::from_secs(1), |o| o.contains("Grbl"));
+    assert!(w.contains("Grbl 1.1"), "{w}");
+    r.send(b"$I\n");
+    let i = r.until(Duration::from_secs(2), |o| o.contains("ok"));
+    assert!(i.contains("[VER:1.1"), "{i}");
+    assert!(i.contains("[OPT:"), "{i}");
+    r.send(b"$G\n");
+    let g = r.until(Duration::from_secs(2), |o| o.contains("ok"));
+    assert!(g.contains("[GC:G0 G54 G17 G21 G90 G94"), "{g}");
+}
+
+#[test]
+fn a_program_streams_with_one_ok_per_line_and_ends_where_it_should() {
+    let mut r = rig(20.0);
+    r.until(Duration::from_secs(1), |o| o.contains("Grbl"));
+    let prog = "G21 G90\nG1 X10 F3000\nG1 Y5\n(comment)\nG2 X15 Y10 I5 J0\nG0 Z2\n";
+    r.send(prog.as_bytes());
+    let oks = r.until(Duration::from_secs(10), |o| count(o, "ok\r\n") == 6);
+    assert!(!oks.contains("error"), "{oks}");
+    let s = r.idle(Duration::from_secs(20));
+    assert!(s.contains("MPos:15.000,10.000,2.000"), "{s}");
+}
+
+#[test]
+fn a_dwell_is_answered_after_the_motion_before_it() {
+    let mut r = rig(10.0);
+    r.until(Duration::from_secs(1), |o| o.contains("Grbl"));
+    r.send(b"G1 X20 F3000\nG4 P0.1\n");
+    r.until(Duration::from_secs(10), |o| count(o, "ok\r\n") == 1);
+    // The second ok only once the tool is at X20 and the dwell is done.
+    r.until(Duration::from_secs(10), |o| count(o, "ok\r\n") == 1);
+    let s = r.status();
+    assert!(s.contains("MPos:20.000,0.000,0.000"), "{s}");
+}
+
+#[test]
+fn real_time_bytes_act_mid_line_and_leave_the_line_whole() {
+    let mut r = rig(10.0);
+    r.until(Duration::from_secs(1), |o| o.contains("Grbl"));
+    r.send(b"G1 X3?0 F3000\n");
+    let got = r.until(Duration::from_secs(5), |o| o.contains('>') && o.contains("ok"));
+    assert!(got.contains("<Idle") || got.contains("<Run"), "{got}");
+    let s = r.idle(Duration::from_secs(10));
+    assert!(s.contains("MPos:30.000"), "{s}");
+    // Feed override +10 % shows in Ov.
+    r.send(&[0x91]);
+    let mut seen = String::new();
+    for _ in 0..12 {
+        seen = r.status();
+        if seen.contains("Ov:110") {
+            break;
+        }
+    }
+    assert!(seen.contains("Ov:110,100,100"), "{seen}");
+}
+
+#[test]
+fn errors_carry_grbls_numbers() {
+    let mut r = rig(10.0);
+    r.until(Duration::from_secs(1), |o| o.contains("Grbl"));
+    r.send(b"G76 X1\n");
+    let e = r.until(Duration::from_secs(2), |o| o.contains("error:"));
+    assert!(e.contains("error:20"), "{e}");
+    r.send(b"G0 X1 X2\n");
+    let e = r.until(Duration::from_secs(2), |o| o.contains("error:"));
+    assert!(e.contains("error:25"), "{e}");
+    r.send(b"$J=X10\n");
+    let e = r.until(Duration::from_secs(2), |o| o.contains("error:"));
+    assert!(e.contains("error:"), "{e}");
+    // Each line had exactly one answer, in order: a good line still runs.
+    r.send(b"G0 X1\n");
+    r.until(Duration::from_secs(2), |o| o.contains("ok"));
+}
+
+#[test]
+fn a_soft_reset_stops_the_motion_and_says_welcome_again() {
+    let mut r = rig(5.0);
+    r.until(Duration::from_secs(1), |o| o.contains("Grbl"));
+    r.send(b"G1 X200 F1000\n");
+    r.until(Duration::from_secs(5), |o| o.contains("ok"));
+    let t0 = Instant::now();
+    while !r.status().starts_with("<Run|MPos:1") {
+        assert!(t0.elapsed() < Duration::from_secs(10));
+    }
+    r.send(&[0x18]);
+    let w = r.until(Duration::from_secs(2), |o| o.contains("Grbl"));
+    assert!(w.contains("Grbl 1.1"), "{w}");
+    let s = r.idle(Duration::from_secs(10));
+    let x: f64 = s
+        .split("MPos:")
+        .nth(1)
+        .and_then(|t| t.split(',').next())
+        .and_then(|v| v.parse().ok())
+        .unwrap();
+    assert!(x > 0.0 && x < 200.0, "{s}");
+    // The machine takes a new program at once.
+    r.send(b"G90 G0 X0\n");
+    r.until(Duration::from_secs(5), |o| o.contains("ok"));
+    let s = r.idle(Duration::from_secs(20));
+    assert!(s.contains("MPos:0.000,0.000,0.000"), "{s}");
+}
+
+#[test]
+fn a_jog_moves_from_where_the_tool_is_and_a_cancel_stops_it() {
+    let mut r = rig(10.0);
+    r.until(Duration::from_secs(1), |o| o.contains("Grbl"));
+    r.send(b"$J=G91 X5 Y-2 F2000\n");
+    r.until(Duration::from_secs(5), |o| o.contains("ok"));
+    let s = r.idle(Duration::from_secs(10));
+    assert!(s.contains("MPos:5.000,-2.000,0.000"), "{s}");
+    // A program after the jog starts from there.
+    r.send(b"G91 G1 X1 F1000\n");
+    r.until(Duration::from_secs(5), |o| o.contains("ok"));
+    let s = r.idle(Duration::from_secs(10));
+    assert!(s.contains("MPos:6.000,-2.000,0.000"), "{s}");
+}
+
+#[test]
+fn work_offsets_show_in_wco_and_in_the_parameters() {
+    let mut r = rig(10.0);
+    r.until(Duration::from_secs(1), |o| o.contains("Grbl"));
+    r.send(b"G0 X10 Y20\nG10 L20 P1 X0 Y0\n");
+    r.until(Duration::from_secs(10), |o| count(o, "ok\r\n") == 2);
+    r.send(b"$#\n");
+    let p = r.until(Duration::from_secs(2), |o| o.contains("ok"));
+    assert!(p.contains("[G54:10.000,20.000,0.000]"), "{p}");
+    let mut s = String::new();
+    for _ in 0..12 {
+        s = r.status();
+        if s.contains("WCO:") {
+            break;
+        }
+    }
+    assert!(s.contains("WCO:10.000,20.000,0.000"), "{s}");
+}
