@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, bail, Context, Result};
 
-use super::arc::{Centre, Plane};
+use super::arc::{Centre, Plane, RadiusTolerance};
 use super::comp::{Comp, Side};
 use super::cycles;
 use super::expr::{parameter_number, Params, MAX_PARAMETER};
@@ -821,6 +821,7 @@ impl<'s> Interp<'s> {
 
     fn restore(&mut self, m: &Modal) -> Result<()> {
         self.units = m.units;
+        self.out.arc_tolerance = RadiusTolerance::for_units(self.units);
         self.absolute = m.absolute;
         self.arc_absolute = m.arc_absolute;
         self.plane = m.plane;
@@ -1102,8 +1103,10 @@ impl<'s> Interp<'s> {
                 (17, 0) => self.plane = Plane::Xy,
                 (18, 0) => self.plane = Plane::Zx,
                 (19, 0) => self.plane = Plane::Yz,
-                (20, 0) => self.units = 25.4,
-                (21, 0) => self.units = 1.0,
+                (20, 0) | (21, 0) => {
+                    self.units = if g == 20 { 25.4 } else { 1.0 };
+                    self.out.arc_tolerance = RadiusTolerance::for_units(self.units);
+                }
                 (7, 0) => self.diameter_mode = true,
                 (8, 0) => self.diameter_mode = false,
                 (96, 0) => self.css = true,

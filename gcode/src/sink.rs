@@ -5,7 +5,7 @@
 
 use anyhow::{bail, Result};
 
-use super::arc::{self, Centre, Plane};
+use super::arc::{self, Centre, Plane, RadiusTolerance};
 use crate::toolpath::{MachineEvent, SpindleDir};
 
 /// The points of a program so far.
@@ -22,6 +22,8 @@ pub struct Sink {
     pub tolerance_mm: f64,
     /// Spindle and coolant commands: after which point, source line, what.
     pub events: Vec<(usize, u32, MachineEvent)>,
+    /// How far an arc's end may be off its circle (follows G20/G21).
+    pub arc_tolerance: RadiusTolerance,
     spindle: SpindleDir,
     rpm: f64,
     flood: bool,
@@ -38,6 +40,7 @@ impl Sink {
             max_points,
             tolerance_mm,
             events: Vec::new(),
+            arc_tolerance: RadiusTolerance::MM,
             spindle: SpindleDir::Off,
             rpm: 0.0,
             flood: false,
@@ -150,6 +153,7 @@ impl Sink {
             extra_turns,
             self.tolerance_mm,
             self.room(),
+            self.arc_tolerance,
         )
         .map_err(|e| anyhow::anyhow!("line {line}: {e}"))?;
         for p in pts {
