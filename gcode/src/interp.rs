@@ -160,8 +160,8 @@ struct Modal {
 pub struct ToolData {
     /// Radius, mm.
     pub radius_mm: f64,
-    /// Length offset (Z), mm.
-    pub length_mm: f64,
+    /// Offsets X Y Z A B C U V W (Z: the length), mm (degrees for A B C).
+    pub offset_mm: [f64; 9],
 }
 
 /// The interpreter's state.
@@ -269,13 +269,37 @@ impl<'s> Interp<'s> {
         params[P_COORD] = 1.0;
         let mut tools = HashMap::new();
         for t in &s.tools {
+            let mut offset_mm = [0.0; 9];
+            offset_mm[2] = t.length_mm;
             tools.insert(
                 t.number,
                 ToolData {
                     radius_mm: t.diameter_mm / 2.0,
-                    length_mm: t.length_mm,
+                    offset_mm,
                 },
             );
+        }
+        if let Some(path) = &s.tool_table {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("reading gcode.tool_table {}", path.display()))?;
+            let table = super::tool_table::parse(&text)
+                .with_context(|| format!("in gcode.tool_table {}", path.display()))?;
+            for r in table {
+                if tools.contains_key(&r.number) {
+                    bail!(
+                        "tool {} is both in gcode.tools and in gcode.tool_table {}",
+                        r.number,
+                        path.display()
+                    );
+                }
+                tools.insert(
+                    r.number,
+                    ToolData {
+                        radius_mm: r.diameter / 2.0,
+                        offset_mm: r.offset,
+                    },
+                );
+            }
         }
         let mut pos = [0.0; 9];
         pos[..3].copy_from_slice(&s.start_mm);
@@ -1163,15 +1187,27 @@ impl<'s> Interp<'s> {
                 Some(h) => bail!("line {line}: H{h} is not a tool number"),
                 None => self.current_tool,
             };
-            let len = match self.tools.get(&t) {
-                Some(td) => td.length_mm,
-                None if t == 0 => 0.0,
-                None => bail!("line {line}: G43: tool {t} is not in the tool table (gcode.tools)"),
+            let off = match self.tools.get(&t) {
+                Some(td) => td.offset_mm,
+                None if t == 0 => [0.0; 9],
+                None if self.s.strict_tools => bail!(
+                    "line {line}: G43: tool {t} is not in the tool table (gcode.tools, gcode.tool_table; gcode.strict_tools is on)"
+                ),
+                None => {
+                    // See `GcodeSettings::strict_tools`.
+                    self.out.warn(
+                        line,
+                        format!("G43: tool {t} is not in the tool table: its length is taken as 0 (give it in gcode.tool_table or gcode.tools; gcode.strict_tools = true refuses this)"),
+                    );
+                    [0.0; 9]
+                }
             };
             if b.has_g(43, 0) {
                 self.tlo = [0.0; 9];
             }
-            self.tlo[2] += len;
+            for (v, o) in self.tlo.iter_mut().zip(off) {
+                *v += o;
+            }
         }
         if b.has_g(43, 1) {
             self.tlo = [0.0; 9];
@@ -1412,7 +1448,7 @@ impl<'s> Interp<'s> {
                     t.radius_mm = r * self.units;
                 }
                 if let Some(z) = b.get('Z') {
-                    t.length_mm = if l as u32 == 1 {
+                    t.offset_mm[2] = if l as u32 == 1 {
                         z * self.units
                     } else {
                         // The length that makes the current Z read `z`.

@@ -18,7 +18,7 @@
 //! | G28 G30 (with axis words: via that point), G28.1 G30.1 | to the reference positions (`[gcode.reference_positions]`, #5161-5169, #5181-5189) |
 //! | G92 G92.1 G92.2 G92.3, G52 | axis offsets (#5210-5219) |
 //! | G54-G59.3, G10 L2 / L20 | work offsets (`[gcode.work_offsets]`, #5221-5390) |
-//! | T, M6, M61, G43 H, G43.1, G43.2, G49, G10 L1/L10/L11 | tools (`[[gcode.tools]]`): length offset along Z, radius for compensation |
+//! | T, M6, M61, G43 H, G43.1, G43.2, G49, G10 L1/L10/L11 | tools (`[[gcode.tools]]`, or a LinuxCNC `tool.tbl` in `gcode.tool_table`: [`tool_table`]): offsets (length along Z), radius for compensation; G43 of a tool not in the table: length 0 and a warning (`gcode.strict_tools = true`: refused) |
 //! | G40 G41 G42 G41.1 G42.1 (D) | cutter radius compensation, XY plane |
 //! | G73 G74 G81-G89, G80, G98 G99, L repeats | canned cycles expanded into moves (G88 refused) |
 //! | G33 | a straight move at K × S |
@@ -49,6 +49,7 @@ pub mod path_csv;
 pub mod program;
 pub mod shapes;
 pub mod sink;
+pub mod tool_table;
 pub mod toolpath;
 
 use std::path::{Path, PathBuf};
@@ -85,6 +86,23 @@ pub struct GcodeSettings {
     pub work_offsets: WorkOffsets,
     /// The tool table.
     pub tools: Vec<ToolEntry>,
+    /// A tool table file in LinuxCNC's format ([`tool_table`], values in
+    /// mm), read when a program starts; its tools are added to `tools` (a
+    /// tool in both is an error). Relative to the configuration file's
+    /// folder when read from one.
+    pub tool_table: Option<PathBuf>,
+    /// Refuse `G43 H<n>` (or `G43` after `T<n> M6`) for a tool that is
+    /// not in the table, as LinuxCNC does ("Requested tool %d not found in
+    /// the tool table": `interp_find.cc`, `Interp::find_tool_index`). Off
+    /// (the default): its offsets are taken as 0 with a warning, as a
+    /// controller with a fixed-size table reads a slot nobody set (grblHAL
+    /// `gcode.c`, `gc_execute_line`, G43: every entry below `n_tools`
+    /// exists and is zero until set). CAM posts (Fusion 360, Mach3,
+    /// LinuxCNC) emit `T1 M6` `G43 H1` whatever the machine's table holds,
+    /// and a toolpath with the tool's length unknown is still the path
+    /// programmed, shifted along Z by that length. G41/G42 of an unknown
+    /// tool stay refused: a radius of 0 would change the path's shape.
+    pub strict_tools: bool,
     /// Resource bounds.
     pub limits: Limits,
 }
@@ -103,6 +121,8 @@ impl Default for GcodeSettings {
             reference_positions: ReferencePositions::default(),
             work_offsets: WorkOffsets::default(),
             tools: Vec::new(),
+            tool_table: None,
+            strict_tools: false,
             limits: Limits::default(),
         }
     }
@@ -115,7 +135,14 @@ impl GcodeSettings {
     pub fn read_config_file(path: &Path) -> Result<Self> {
         let text =
             std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-        Self::from_config_text(&text).with_context(|| format!("in {}", path.display()))
+        let mut s =
+            Self::from_config_text(&text).with_context(|| format!("in {}", path.display()))?;
+        if let (Some(t), Some(dir)) = (&s.tool_table, path.parent()) {
+            if t.is_relative() {
+                s.tool_table = Some(dir.join(t));
+            }
+        }
+        Ok(s)
     }
 
     /// [`GcodeSettings::read_config_file`] of TOML text.
@@ -292,6 +319,9 @@ pub struct Program {
     pub lines: Vec<u32>,
     /// Spindle and coolant commands: after which point, source line, what.
     pub events: Vec<(usize, u32, crate::toolpath::MachineEvent)>,
+    /// What was read other than as written: source line, text (in program
+    /// order; one per occurrence).
+    pub warnings: Vec<(u32, String)>,
 }
 
 /// Run G-code text; `dir` is where its subroutine files are.
@@ -305,6 +335,7 @@ pub fn run(src: &str, dir: Option<&Path>, settings: &GcodeSettings) -> Result<Pr
         caps: it.out.caps,
         lines: it.out.lines,
         events: it.out.events,
+        warnings: it.out.warnings,
     })
 }
 
@@ -316,6 +347,14 @@ pub fn parse(name: &str, src: &str, settings: &GcodeSettings) -> Result<Toolpath
 
 /// Read a G-code file; errors name the file and the line.
 pub fn read(path: &Path, settings: &GcodeSettings) -> Result<Toolpath> {
+    read_with_warnings(path, settings).map(|(t, _)| t)
+}
+
+/// [`read`], with the program's warnings ([`Program::warnings`]).
+pub fn read_with_warnings(
+    path: &Path,
+    settings: &GcodeSettings,
+) -> Result<(Toolpath, Vec<(u32, String)>)> {
     let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
     let text = String::from_utf8_lossy(&bytes);
     let name = path
@@ -323,8 +362,9 @@ pub fn read(path: &Path, settings: &GcodeSettings) -> Result<Toolpath> {
         .map_or("gcode".into(), |s| s.to_string_lossy().into_owned());
     let p = run(&text, interp::program_dir(path).as_deref(), settings)
         .with_context(|| format!("in {}", path.display()))?;
-    Toolpath::with_events(name, p.points, p.caps, p.lines, p.events)
-        .with_context(|| format!("in {}", path.display()))
+    let t = Toolpath::with_events(name, p.points, p.caps, p.lines, p.events)
+        .with_context(|| format!("in {}", path.display()))?;
+    Ok((t, p.warnings))
 }
 
 #[cfg(test)]

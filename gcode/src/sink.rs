@@ -24,6 +24,9 @@ pub struct Sink {
     pub events: Vec<(usize, u32, MachineEvent)>,
     /// How far an arc's end may be off its circle (follows G20/G21).
     pub arc_tolerance: RadiusTolerance,
+    /// What was read other than as written (a tool taken as length 0, a
+    /// Grbl query skipped): source line, text.
+    pub warnings: Vec<(u32, String)>,
     spindle: SpindleDir,
     rpm: f64,
     flood: bool,
@@ -41,11 +44,17 @@ impl Sink {
             tolerance_mm,
             events: Vec::new(),
             arc_tolerance: RadiusTolerance::MM,
+            warnings: Vec::new(),
             spindle: SpindleDir::Off,
             rpm: 0.0,
             flood: false,
             mist: false,
         }
+    }
+
+    /// A warning about line `line`.
+    pub fn warn(&mut self, line: u32, text: impl Into<String>) {
+        self.warnings.push((line, text.into()));
     }
 
     fn event(&mut self, line: u32, e: MachineEvent) {
