@@ -139,6 +139,9 @@ struct CallInfo {
     label: Label,
     saved: [f64; 30],
     modal: Option<Modal>,
+    /// An `M98` call: the `O` line it started at and the passes left after
+    /// this one.
+    m98: Option<(usize, u64)>,
 }
 
 /// Modal state saved by M70/M73 (LinuxCNC `save_settings`).
@@ -201,6 +204,9 @@ pub struct Interp<'s> {
     frames: Vec<Frame>,
     files: Vec<File>,
     subs: HashMap<Label, (usize, usize)>,
+    /// Fanuc program numbers (`O1000` lines) of each file, found when an
+    /// `M98` first needs them: number → line indices.
+    programs: HashMap<usize, HashMap<u32, Vec<usize>>>,
     dir: Option<PathBuf>,
     saved_modal: Option<Modal>,
     value: f64,
@@ -334,6 +340,7 @@ impl<'s> Interp<'s> {
             frames: Vec::new(),
             files: Vec::new(),
             subs: HashMap::new(),
+            programs: HashMap::new(),
             dir,
             saved_modal: None,
             value: 0.0,
@@ -661,7 +668,7 @@ impl<'s> Interp<'s> {
                 };
                 self.goto(end + 1);
             }
-            Keyword::EndIf | Keyword::Do => {}
+            Keyword::EndIf | Keyword::Do | Keyword::Program => {}
             Keyword::While => match self.jump(fi, pc)? {
                 Jump::LoopStart { end } => {
                     if self.eval_args(args)?[0] == 0.0 {
@@ -801,6 +808,7 @@ impl<'s> Interp<'s> {
                 label: label.clone(),
                 saved,
                 modal: None,
+                m98: None,
             }),
             locals: HashMap::new(),
             repeats: HashMap::new(),
@@ -815,6 +823,16 @@ impl<'s> Interp<'s> {
         let Some(c) = &f.call else {
             bail!("{label} return or endsub reached outside a call");
         };
+        if c.m98.is_some() {
+            bail!(
+                "{label} {}: the Fanuc subprogram O{} called by M98 ends with M99 (LinuxCNC: \"Fanuc 'O....' subroutine definition must end with 'M99'\")",
+                if endsub { "endsub" } else { "return" },
+                match &c.label {
+                    Label::Number(n) => n.to_string(),
+                    Label::Name(s) => s.clone(),
+                }
+            );
+        }
         if endsub && &c.label != label {
             bail!("{label} return inside {} sub", c.label);
         }
@@ -1086,6 +1104,8 @@ impl<'s> Interp<'s> {
                     self.selected_tool = q as u32;
                 }
                 0 | 1 | 2 | 30 | 60 => {}
+                // After the block's motion (see `Interp::m98`).
+                98 | 99 => {}
                 3..=5 => self.out.m_word(line, m, self.rpm),
                 // After the spindle words (RS274/NGC's order of execution).
                 7..=9 | 19 | 48..=53 => {}
@@ -1306,8 +1326,152 @@ impl<'s> Interp<'s> {
             }
             self.motion_block(b, m, g53)?;
         }
+        let (m98, m99) = (b.m.contains(&98), b.m.contains(&99));
+        if (m98 || m99) && b.m.iter().any(|&m| m == 2 || m == 30) || m98 && m99 {
+            bail!("line {line}: M98, M99, M2 and M30 end or leave the block's program: one of them per block");
+        }
+        if m98 {
+            self.m98(b)?;
+        }
+        if m99 {
+            return self.m99(b);
+        }
         if b.m.iter().any(|&m| m == 2 || m == 30) {
             return Ok(false);
+        }
+        Ok(true)
+    }
+
+    /// `M98 P<n> [L<passes>]`: run the Fanuc subprogram `O<n>` (an `O<n>`
+    /// line, its end the first `M99` executed) `L` times (default 1; `L0`
+    /// skips the call). As LinuxCNC does it (`interp_read.cc`,
+    /// `Interp::read_o`; `interp_o_word.cc`, `Interp::execute_call`,
+    /// `CT_NGC_M98_SUB`): #1-#30 are passed through, not saved and
+    /// restored as `o… call` does, and `O<n>` is looked for in the calling
+    /// file, then in the main program (LinuxCNC then looks for a file named
+    /// `<n>.ngc`; we do not). LinuxCNC takes M98 only as the first word of
+    /// a line; we take it anywhere in a block and call after the block's
+    /// motion, where grblHAL does (`gcode.c`, `gc_execute_line`,
+    /// `MacroCall_NonModal98`, after the motion and before program flow).
+    /// Fanuc can pack the passes into P (`P30100`: 3 × O100); LinuxCNC,
+    /// grblHAL and Mach3 read P as the number and L as the passes, so do we.
+    /// Passes and nesting are bounded by `gcode.limits`.
+    fn m98(&mut self, b: &Blk) -> Result<()> {
+        let line = b.line;
+        let p = b
+            .get('P')
+            .ok_or_else(|| anyhow!("line {line}: M98 needs P, the program number to call"))?;
+        if !(p >= 0.0 && p.fract() == 0.0 && p <= u32::MAX as f64) {
+            bail!("line {line}: M98 P{p} is not a program number");
+        }
+        let n = p as u32;
+        let passes = match b.get('L') {
+            None => 1,
+            Some(l) if l >= 0.0 && l.fract() == 0.0 => l.min(u64::MAX as f64) as u64,
+            Some(l) => bail!("line {line}: M98 L{l} is not a number of passes"),
+        };
+        if passes == 0 {
+            return Ok(());
+        }
+        let depth = self.frames.len();
+        if depth > self.s.limits.max_call_depth {
+            bail!(
+                "line {line}: M98 P{n}: more than gcode.limits.max_call_depth = {} nested calls (endless recursion?)",
+                self.s.limits.max_call_depth
+            );
+        }
+        let here = self.frames.last().map_or(0, |f| f.file);
+        let mut found = None;
+        for fi in [here, 0] {
+            if let Some(at) = self.find_program(fi, n, line)? {
+                found = Some((fi, at));
+                break;
+            }
+        }
+        let Some((fi, at)) = found else {
+            let hint = if n >= 10_000 && b.get('L').is_none() {
+                format!(" (Fanuc's P that packs passes and number, P{}{:04} for {} × O{}, is not read: write M98 P{} L{})", n / 10_000, n % 10_000, n / 10_000, n % 10_000, n % 10_000, n / 10_000)
+            } else {
+                String::new()
+            };
+            bail!("line {line}: M98 P{n}: no O{n} line (a Fanuc subprogram: O{n} … M99) in the program{hint}");
+        };
+        self.frames.push(Frame {
+            file: fi,
+            pc: at + 1,
+            call: Some(CallInfo {
+                label: Label::Number(n),
+                saved: [0.0; 30],
+                modal: None,
+                m98: Some((at, passes - 1)),
+            }),
+            locals: HashMap::new(),
+            repeats: HashMap::new(),
+        });
+        Ok(())
+    }
+
+    /// The line of `O<n>` in file `fi`, if there is one; two are an error.
+    fn find_program(&mut self, fi: usize, n: u32, line: u32) -> Result<Option<usize>> {
+        let Some(file) = self.files.get(fi) else {
+            return Ok(None);
+        };
+        let index = self.programs.entry(fi).or_insert_with(|| {
+            let mut m: HashMap<u32, Vec<usize>> = HashMap::new();
+            for i in 0..file.lines.len() {
+                if let Some((Label::Number(k), Keyword::Program)) = file.oword(i) {
+                    m.entry(*k).or_default().push(i);
+                }
+            }
+            m
+        });
+        match index.get(&n).map(Vec::as_slice) {
+            None | Some([]) => Ok(None),
+            Some([at]) => Ok(Some(*at)),
+            Some([a, b, ..]) => bail!(
+                "line {line}: M98 P{n}: O{n} is on lines {} and {}",
+                file.lines[*a].number,
+                file.lines[*b].number
+            ),
+        }
+    }
+
+    /// `M99`: the end of a pass of an `M98` subprogram (the next pass, or
+    /// back to the caller). In the main program it ends the program: a
+    /// Fanuc or Mach3 control would start the program over, endlessly (a
+    /// bar feeder's loop); LinuxCNC loops only in its task with
+    /// `[RS274NGC]FEATURES` bit 5 and ends the program elsewhere, its
+    /// preview included (`interp_convert.cc`, `Interp::convert_stop`,
+    /// `loop_on_main_m99`), and so does grblHAL (`gcode.c`,
+    /// `gc_execute_line`, `ProgramFlow_Return` without a macro to return
+    /// from). A toolpath is one pass. `M99` inside an `o… sub` is an
+    /// error, as in LinuxCNC (`interp_o_word.cc`,
+    /// `Interp::convert_control_functions`).
+    fn m99(&mut self, b: &Blk) -> Result<bool> {
+        let line = b.line;
+        if b.get('P').is_some() {
+            bail!("line {line}: M99 P (return to a numbered line of the caller) is not supported");
+        }
+        let Some(f) = self.frames.last_mut() else {
+            return Ok(false);
+        };
+        let Some(c) = f.call.as_mut() else {
+            return Ok(false); // the main program
+        };
+        match c.m98.as_mut() {
+            None => bail!(
+                "line {line}: M99 inside {} sub, which ends with {} endsub or {} return (LinuxCNC: \"'O.... endsub' or 'O.... return' must follow 'O.... sub'\")",
+                c.label,
+                c.label,
+                c.label
+            ),
+            Some((at, left)) if *left > 0 => {
+                *left -= 1;
+                f.pc = *at + 1;
+            }
+            Some(_) => {
+                self.frames.pop();
+            }
         }
         Ok(true)
     }
@@ -1812,4 +1976,79 @@ impl<'s> Interp<'s> {
 /// The directory of a program file, for its subroutine files.
 pub fn program_dir(path: &Path) -> Option<PathBuf> {
     path.parent().map(Path::to_path_buf)
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::toolpath::Toolpath;
+    use crate::{run, GcodeSettings};
+
+    fn p(src: &str) -> anyhow::Result<Toolpath> {
+        crate::parse("t", src, &GcodeSettings::default())
+    }
+
+    fn err(src: &str) -> String {
+        format!("{:#}", p(src).unwrap_err())
+    }
+
+    #[test]
+    fn fanuc_program_numbers_and_m98_subprograms() {
+        // A Mach3/Fanuc file: % framing, O header with a name, the
+        // subprogram after M30, called three times.
+        let src = "%\nO0001 (MAIN)\nG21 G90 G0 X0 Y0 Z0\nM98 P1000 L3\nG0 X0 Y0\nM30\nO1000 (STEP)\nG91 G1 X1 F100\nG90\nM99\n%\n";
+        let t = p(src).unwrap();
+        let xs: Vec<f64> = t.points.iter().map(|q| q[0]).collect();
+        assert_eq!(xs, vec![0.0, 1.0, 2.0, 3.0, 0.0]);
+        assert_eq!(t.lines, vec![0, 8, 8, 8, 5]);
+        // Inch: the subprogram runs in the caller's units.
+        let t = p(&src.replace("G21", "G20")).unwrap();
+        assert_eq!(t.points[3][0], 3.0 * 25.4);
+        // No L: once; L0: not at all; a block's motion before its call.
+        let t = p("G0 X0\nG0 X5 M98 P7\nM30\nO7\nG1 Y1 F10\nM99\n").unwrap();
+        assert_eq!(t.points[1..], [[5.0, 0.0, 0.0], [5.0, 1.0, 0.0]]);
+        let t = p("G0 X1\nM98 P7 L0\nM30\nO7\nG1 Y1 F10\nM99\n").unwrap();
+        assert_eq!(t.points.len(), 2);
+        // Nested subprograms, #1 passed through (not saved as o-call does).
+        let t = p("#1=2\nM98 P1\nG0 X#1\nM30\nO1\nM98 P2 L2\nM99\nO2\n#1=[#1+1]\nM99\n").unwrap();
+        assert_eq!(t.points.last().unwrap()[0], 4.0);
+        // A program without M30 that runs into its subprogram: the O line
+        // is passed, and M99 in the main program ends it.
+        let t = p("G0 X1\nO100\nG0 X2\nM99\nG0 X3\n").unwrap();
+        assert_eq!(t.points.last().unwrap()[0], 2.0);
+    }
+
+    #[test]
+    fn fanuc_subprogram_errors_name_the_line() {
+        for (src, want) in [
+            ("G0 X1\nM98 P5\nM30\n", "line 2: M98 P5: no O5"),
+            ("M98\n", "line 1: M98 needs P"),
+            ("M98 P1.5\n", "line 1"),
+            ("M98 P1 L-1\nM30\nO1\nM99\n", "line 1"),
+            ("M98 P30100\nM30\nO100\nM99\n", "M98 P100 L3"),
+            ("M98 P1\nM30\nO1\nG0 X1\n", "ended inside subroutine"),
+            ("M98 P1\nM30\no2 sub\nO1\no2 endsub\n", "ends with M99"),
+            (
+                "o1 call\nM30\no1 sub\nM99\no1 endsub\n",
+                "line 4: M99 inside o1 sub",
+            ),
+            ("M98 P1\nM30\nO1\nM99 P10\n", "line 4"),
+            ("M98 P1 M30\n", "line 1"),
+            ("M98 P1\nM30\nO1\nM99\nO1\nM99\n", "lines 3 and 5"),
+            // Endless recursion stops at the call depth.
+            ("M98 P1\nM30\nO1\nM98 P1\nM99\n", "max_call_depth"),
+        ] {
+            let e = err(src);
+            assert!(e.contains(want), "{src:?}: {e}");
+        }
+        // Passes are bounded by the executed-lines limit.
+        let s = GcodeSettings {
+            limits: crate::Limits {
+                max_executed_lines: 1000,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let e = run("M98 P1 L100000000000\nM30\nO1\nM99\n", None, &s).unwrap_err();
+        assert!(format!("{e:#}").contains("max_executed_lines"), "{e:#}");
+    }
 }

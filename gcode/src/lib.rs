@@ -26,6 +26,7 @@
 //! | A B C U V W | carried (offsets, references, parameters); a move that drives one is refused by name unless `gcode.extra_axes = "ignore"` |
 //! | M3-M5 (with S), M7-M9, S while the spindle runs | no effect on the path; machine events in order with it (`Toolpath::events`: after which point) |
 //! | M0 M1 M19 M48-M53 M62-M65 M67 M68, G4, G61 G61.1 G64, G96 G97, comments, N, `/` lines (block delete on) | no effect on the path |
+//! | `O1000` program numbers, `M98 P<n> L<passes>`, `M99` | Fanuc/Mach3 subprograms (`O<n>` … `M99`, usually after M30) on the O-word machinery; `M99` in the main program ends it (LinuxCNC's preview and grblHAL; Fanuc and Mach3 would loop) |
 //! | M2 M30, a second `%` | end of program |
 //! | M70-M73 | modal state saved and restored |
 //! | G38 probing, M66 inputs, M100-M199, `#<_hal[…]>`, `#<_ini[…]>`, G88 | refused: "needs live machine state" |

@@ -72,6 +72,11 @@ pub enum Keyword {
     Break,
     /// `continue`.
     Continue,
+    /// A bare `O1000` (no keyword): a Fanuc-style program number, the start
+    /// of a subprogram that `M98 P1000` calls and `M99` ends (LinuxCNC
+    /// `interp_read.cc`, `Interp::read_o`: the `O_` type); a no-op where
+    /// the program runs into it.
+    Program,
 }
 
 impl Keyword {
@@ -114,6 +119,7 @@ impl Keyword {
             Keyword::EndRepeat => "endrepeat",
             Keyword::Break => "break",
             Keyword::Continue => "continue",
+            Keyword::Program => "(program number)",
         }
     }
 }
@@ -334,6 +340,13 @@ impl Cursor<'_> {
             self.i += 1;
         }
         let word = std::str::from_utf8(&self.s[start..self.i]).unwrap_or("");
+        if word.is_empty() && self.i == self.s.len() && matches!(label, Label::Number(_)) {
+            return Ok(Stmt::OWord {
+                label,
+                keyword: Keyword::Program,
+                args: Vec::new(),
+            });
+        }
         let keyword = Keyword::from_word(word).ok_or_else(|| {
             anyhow!(
                 "line {}: {label} {word:?} is not an O-word keyword (sub, endsub, call, return, if, elseif, else, endif, while, endwhile, do, repeat, endrepeat, break, continue)",

@@ -207,7 +207,7 @@ fn structure(lines: &[Line]) -> Result<Structure> {
                 };
                 jumps.insert(i, Jump::InLoop { start: s });
             }
-            Keyword::Call => {}
+            Keyword::Call | Keyword::Program => {}
         }
     }
     if let Some((label, k, i)) = open.last() {
