@@ -524,6 +524,10 @@ impl<'s> Interp<'s> {
                     percent_seen = true;
                     Ok(true)
                 }
+                Stmt::Skipped(why) => {
+                    self.out.warn(line, why.clone());
+                    Ok(true)
+                }
                 Stmt::OWord {
                     label,
                     keyword,

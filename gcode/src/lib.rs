@@ -30,6 +30,7 @@
 //! | M2 M30, a second `%` | end of program |
 //! | M70-M73 | modal state saved and restored |
 //! | G38 probing, M66 inputs, M100-M199, `#<_hal[…]>`, `#<_ini[…]>`, G88 | refused: "needs live machine state" |
+//! | `$H`, `$X`, `$32=1`, `$J=…` and other Grbl system commands | refused by name: "send it from the sender or its console"; the queries `$` `$$` `$#` `$G` `$I` `$N` are skipped with a warning ([`grbl_system`]) |
 //! | anything else (G76, G70-G72, G33.1, rotation in G10, …) | **error naming the file, line and feature** |
 //!
 //! Every point keeps its source line, and the feed of its block (or the
@@ -41,6 +42,7 @@ pub mod arc;
 pub mod comp;
 pub mod cycles;
 pub mod expr;
+pub mod grbl_system;
 pub mod inputs;
 pub mod interp;
 pub mod nurbs;

@@ -160,6 +160,9 @@ pub enum Stmt {
     },
     /// A `%` line.
     Percent,
+    /// A line with no effect, skipped with this warning (a Grbl query:
+    /// [`crate::grbl_system`]).
+    Skipped(String),
 }
 
 /// A parsed source line.
@@ -206,6 +209,17 @@ fn clean(src: &str, line: u32) -> Result<(String, Option<String>)> {
 /// Parse one source line (without its newline).
 pub fn line(src: &str, number: u32) -> Result<Line> {
     let (text, abort) = clean(src, number)?;
+    match super::grbl_system::classify(&text) {
+        Some(super::grbl_system::SystemLine::Refuse(m)) => bail!("line {number}: {m}"),
+        Some(super::grbl_system::SystemLine::Skip(m)) => {
+            return Ok(Line {
+                number,
+                block_delete: false,
+                stmt: Stmt::Skipped(m),
+            })
+        }
+        None => {}
+    }
     let mut c = Cursor {
         s: text.as_bytes(),
         i: 0,
