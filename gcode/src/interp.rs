@@ -25,7 +25,7 @@ use super::nurbs_block::{self, Collector, Collector6};
 use super::parse::{Keyword, Label, Stmt};
 use super::program::{File, Jump};
 use super::sink::Sink;
-use super::{ExtraAxes, GcodeSettings};
+use super::{ExtraAxes, GcodeSettings, InitialMotion};
 
 /// Axis letters in parameter order.
 pub const AXES: [char; 9] = ['X', 'Y', 'Z', 'A', 'B', 'C', 'U', 'V', 'W'];
@@ -179,6 +179,8 @@ pub struct Interp<'s> {
     /// Selected plane.
     pub plane: Plane,
     pub(super) motion: Option<Motion>,
+    /// `motion` is still `gcode.initial_motion`, unused.
+    motion_initial: bool,
     feed: Option<f64>,
     feed_mode: FeedMode,
     rpm: f64,
@@ -316,7 +318,12 @@ impl<'s> Interp<'s> {
             absolute: true,
             arc_absolute: false,
             plane: Plane::Xy,
-            motion: None,
+            motion: match s.initial_motion {
+                InitialMotion::None => None,
+                InitialMotion::G0 => Some(Motion::Rapid),
+                InitialMotion::G1 => Some(Motion::Linear),
+            },
+            motion_initial: s.initial_motion != InitialMotion::None,
             feed: None,
             feed_mode: FeedMode::PerMinute,
             rpm: 0.0,
@@ -1281,6 +1288,7 @@ impl<'s> Interp<'s> {
                 bail!("line {line}: G80 with axis words");
             }
             self.motion = None;
+            self.motion_initial = false;
             self.cycle = CycleState::default();
         }
         if b.has_g(5, 3) {
@@ -1317,11 +1325,22 @@ impl<'s> Interp<'s> {
                 }
             }
             self.motion = Some(m);
+            self.motion_initial = false;
         }
         if b.has_axis() && !axis_words_used {
             let Some(m) = self.motion else {
-                bail!("line {line}: axis words without a motion mode (G0/G1/G2/G3)");
+                bail!("line {line}: axis words without a motion mode (G0/G1/G2/G3; before the first, gcode.initial_motion = \"g0\" reads them as G0 as Grbl does)");
             };
+            if self.motion_initial {
+                self.motion_initial = false;
+                self.out.warn(
+                    line,
+                    format!(
+                        "axis words before any motion code: read as {} (gcode.initial_motion; \"none\" refuses them as LinuxCNC does)",
+                        if m == Motion::Rapid { "G0" } else { "G1" }
+                    ),
+                );
+            }
             if g53 && !matches!(m, Motion::Rapid | Motion::Linear) {
                 bail!("line {line}: G53 needs G0 or G1");
             }
@@ -1972,6 +1991,7 @@ impl<'s> Interp<'s> {
             }
             self.pos[..3].copy_from_slice(&last);
             self.motion = None;
+            self.motion_initial = false;
         }
         Ok(())
     }

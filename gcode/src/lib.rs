@@ -13,6 +13,7 @@
 //! | G0 G1, G53 | straight moves; G0 at the configured rapid feed |
 //! | G2 G3 (I J K or R, P turns) | arcs and helices within the chord tolerance |
 //! | G5 G5.1, G5.2 … G5.3, G6.2 | cubic and quadratic splines, NURBS blocks (any plane for G5.2, G6.2) |
+//! | axis words before any G0-G3 | read as G0 with a warning (`gcode.initial_motion`: `"g0"`, the default, as Grbl; `"g1"`; `"none"` refuses them, as LinuxCNC) |
 //! | G17 G18 G19, G20 G21, G90 G91, G90.1 G91.1, G7 G8 | plane, units, distance modes, lathe diameter mode |
 //! | F with G93 G94 G95, S | feed caps: per minute, inverse time (F × move length), per revolution (F × S) |
 //! | G28 G30 (with axis words: via that point), G28.1 G30.1 | to the reference positions (`[gcode.reference_positions]`, #5161-5169, #5181-5189) |
@@ -78,6 +79,9 @@ pub struct GcodeSettings {
     pub extra_axes: ExtraAxes,
     /// Retract between pecks of G73/G83 without a D word, mm.
     pub peck_clearance_mm: f64,
+    /// The motion mode when the program starts: what axis words before the
+    /// first G0/G1/G2/G3 do ([`InitialMotion`]).
+    pub initial_motion: InitialMotion,
     /// Tool loaded when the program starts (0: none).
     pub initial_tool: u32,
     /// Where `o<name> call` looks for `name.ngc` after the program's own
@@ -119,6 +123,7 @@ impl Default for GcodeSettings {
             block_delete: true,
             extra_axes: ExtraAxes::Refuse,
             peck_clearance_mm: 1.0,
+            initial_motion: InitialMotion::G0,
             initial_tool: 0,
             subroutine_dirs: Vec::new(),
             reference_positions: ReferencePositions::default(),
@@ -224,6 +229,31 @@ pub enum ExtraAxes {
     Refuse,
     /// Keep X Y Z, drop the others.
     Ignore,
+}
+
+/// The motion mode a program starts in (`gcode.initial_motion`).
+///
+/// Axis words before any motion code (`T1 M6` then `Z10`): rs274ngc
+/// refuses them (LinuxCNC starts in G80, no motion mode:
+/// `rs274ngc_pre.cc`, `Interp::init`; `interp_internal.cc`,
+/// `Interp::enhance_block`: "Cannot use axis values without a g code that
+/// uses them"); Grbl starts in G0 (`grbl/gcode.c`, `gc_init` clears the
+/// state and `MOTION_MODE_SEEK` is 0, "Default: Must be zero"), and so does
+/// grblHAL (`gcode.c`, `gc_init`; `gcode.h`, `MotionMode_Seek = 0`). The default is G0: this controller's
+/// programs come through a sender from Grbl users and Grbl posts, and a
+/// file Grbl runs should run here with the same moves; the first such line
+/// is reported as a warning, so the choice is visible. `none` reads as
+/// LinuxCNC. Only the start is affected: after G80 axis words are refused
+/// again, as in both peers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum InitialMotion {
+    /// No motion mode: axis words before a motion code are refused.
+    None,
+    /// G0.
+    G0,
+    /// G1.
+    G1,
 }
 
 /// G28 and G30 positions, machine coordinates, mm (X Y Z).
@@ -485,6 +515,46 @@ mod tests {
             [t.points[dwells[0].0][0], t.points[dwells[1].0][0]],
             [1.0, 2.0]
         );
+    }
+
+    #[test]
+    fn axis_words_before_any_motion_code_follow_gcode_initial_motion() {
+        let src = "G21 G90\nT1 M6\nZ10\nX5\nG1 X6 F100\n";
+        let run_with = |m| {
+            let s = GcodeSettings {
+                initial_motion: m,
+                ..Default::default()
+            };
+            run(src, None, &s)
+        };
+        // Default: G0 (Grbl), with one warning at the first such line.
+        let p = run_with(InitialMotion::G0).unwrap();
+        assert_eq!(p.points[1..3], [[0.0, 0.0, 10.0], [5.0, 0.0, 10.0]]);
+        assert_eq!(p.caps[1], Some(48_000.0));
+        assert_eq!(p.warnings.len(), 1);
+        assert_eq!(p.warnings[0].0, 3);
+        assert!(p.warnings[0].1.contains("read as G0"));
+        // In inch as in mm.
+        let t = parse("i", "G20\nZ1\n", &GcodeSettings::default()).unwrap();
+        assert_eq!(t.points[1], [0.0, 0.0, 25.4]);
+        // G1: a feed move, which needs a feed.
+        let e = format!("{:#}", run_with(InitialMotion::G1).unwrap_err());
+        assert!(e.contains("line 3") && e.contains("feed"), "{e}");
+        // None: LinuxCNC's refusal.
+        let e = format!("{:#}", run_with(InitialMotion::None).unwrap_err());
+        assert!(
+            e.contains("line 3: axis words without a motion mode"),
+            "{e}"
+        );
+        // After G80 axis words are refused whatever the setting.
+        assert!(p_err_line("G80\nX1\n", "line 2"));
+        // The TOML names.
+        let s = GcodeSettings::from_config_text("[gcode]\ninitial_motion = \"none\"\n").unwrap();
+        assert_eq!(s.initial_motion, InitialMotion::None);
+    }
+
+    fn p_err_line(src: &str, line: &str) -> bool {
+        p(src).is_err_and(|e| format!("{e:#}").contains(line))
     }
 
     #[test]
