@@ -11,7 +11,7 @@
 //! | words | handling |
 //! |---|---|
 //! | G0 G1, G53 | straight moves; G0 at the configured rapid feed |
-//! | G2 G3 (I J K or R, P turns) | arcs and helices within the chord tolerance |
+//! | G2 G3 (I J K or R, P turns) | arcs and helices within the chord tolerance; an end off the start's circle within LinuxCNC's tolerance is a spiral to it ([`arc::RadiusTolerance`]) |
 //! | G5 G5.1, G5.2 … G5.3, G6.2 | cubic and quadratic splines, NURBS blocks (any plane for G5.2, G6.2) |
 //! | axis words before any G0-G3 | read as G0 with a warning (`gcode.initial_motion`: `"g0"`, the default, as Grbl; `"g1"`; `"none"` refuses them, as LinuxCNC) |
 //! | G17 G18 G19, G20 G21, G90 G91, G90.1 G91.1, G7 G8 | plane, units, distance modes, lathe diameter mode |
