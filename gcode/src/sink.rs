@@ -8,6 +8,9 @@ use anyhow::{bail, Result};
 use super::arc::{self, Centre, Plane, RadiusTolerance};
 use crate::toolpath::{MachineEvent, SpindleDir};
 
+/// Most warnings a [`Sink`] keeps.
+pub const MAX_WARNINGS: usize = 10_000;
+
 /// The points of a program so far.
 pub struct Sink {
     /// Points, mm (machine coordinates).
@@ -52,9 +55,18 @@ impl Sink {
         }
     }
 
-    /// A warning about line `line`.
+    /// A warning about line `line`; after [`MAX_WARNINGS`] of them, one
+    /// saying that the rest were dropped (a loop may repeat a warning
+    /// without end).
     pub fn warn(&mut self, line: u32, text: impl Into<String>) {
-        self.warnings.push((line, text.into()));
+        match self.warnings.len() {
+            n if n < MAX_WARNINGS => self.warnings.push((line, text.into())),
+            MAX_WARNINGS => self.warnings.push((
+                line,
+                format!("more than {MAX_WARNINGS} warnings: the rest are not kept"),
+            )),
+            _ => {}
+        }
     }
 
     fn event(&mut self, line: u32, e: MachineEvent) {
@@ -169,5 +181,20 @@ impl Sink {
             self.push(p, cap, line)?;
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn warnings_are_bounded() {
+        let mut s = Sink::new([0.0; 3], 10, 0.001);
+        for i in 0..(MAX_WARNINGS as u32 + 50) {
+            s.warn(i, "w");
+        }
+        assert_eq!(s.warnings.len(), MAX_WARNINGS + 1);
+        assert!(s.warnings[MAX_WARNINGS].1.contains("not kept"));
     }
 }
