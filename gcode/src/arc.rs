@@ -47,15 +47,85 @@ pub enum Centre {
     Radius(f64),
 }
 
+/// How far an arc may stray from a circle and still be read: LinuxCNC's
+/// rules, the more permissive of the two peers'.
+///
+/// - LinuxCNC (`src/emc/rs274ngc/interp_arc.cc`, `Interp::arc_data_ijk`;
+///   constants in `interp_internal.hh`): refused when the start and end
+///   radii differ by more than 100 × `CENTER_ARC_RADIUS_TOLERANCE`, or by
+///   more than that tolerance *and* more than `SPIRAL_RELATIVE_TOLERANCE`
+///   (0.1 %) of the larger radius. The tolerance is 2·√2 units of the last
+///   digit CAM systems commonly round to: 0.002828 in in G20, 0.02828 mm in
+///   G21, so it follows the program's units. A radius (start or end) below
+///   `RADIUS_TOLERANCE` (0.00005 in, 0.00127 mm) is a zero-radius arc, and an
+///   R word may fall short of half the chord by that much
+///   (`Interp::arc_data_r`).
+/// - Grbl (`grbl/gcode.c`, `gc_execute_line`, the `[Arc definition error]`
+///   checks): refused when the radii differ by more than 0.005 mm *and*
+///   either more than 0.5 mm or more than 0.1 % of the start radius, in mm
+///   whatever the program's units. Every arc Grbl reads, LinuxCNC reads.
+///
+/// Neither peer moves the centre: LinuxCNC plans the arc as a spiral whose
+/// radius changes evenly with the angle from start to end
+/// (`src/libposemath/_posemath.c`, `pmCircleInit`), Grbl keeps the start
+/// radius and ends on the programmed point (`grbl/motion_control.c`,
+/// `mc_arc`). We keep the centre and blend the radius as LinuxCNC does, so
+/// the path ends exactly on the programmed point without a jump.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RadiusTolerance {
+    /// Start and end radii may differ by this much, mm…
+    pub spiral_abs_mm: f64,
+    /// …or by this fraction of the larger radius, up to 100 × the absolute
+    /// tolerance.
+    pub spiral_rel: f64,
+    /// Smallest radius; how far an R word may fall short of half the
+    /// chord, mm.
+    pub radius_mm: f64,
+}
+
+impl RadiusTolerance {
+    /// For programs in mm (G21).
+    pub const MM: RadiusTolerance = RadiusTolerance {
+        spiral_abs_mm: 2.0 * 0.01 * std::f64::consts::SQRT_2,
+        spiral_rel: 0.001,
+        radius_mm: 0.00005 * 25.4,
+    };
+    /// For programs in inches (G20).
+    pub const INCH: RadiusTolerance = RadiusTolerance {
+        spiral_abs_mm: 2.0 * 0.001 * std::f64::consts::SQRT_2 * 25.4,
+        spiral_rel: 0.001,
+        radius_mm: 0.00005 * 25.4,
+    };
+
+    /// For programs whose unit is `mm_per_unit` mm.
+    pub fn for_units(mm_per_unit: f64) -> Self {
+        if mm_per_unit == 1.0 {
+            Self::MM
+        } else {
+            Self::INCH
+        }
+    }
+
+    /// Whether radii `r0` (start) and `r1` (end) are too far apart.
+    pub fn refuses(&self, r0: f64, r1: f64) -> bool {
+        let abs_err = (r0 - r1).abs();
+        let rel_err = abs_err / r0.max(r1);
+        abs_err > 100.0 * self.spiral_abs_mm
+            || (rel_err > self.spiral_rel && abs_err > self.spiral_abs_mm)
+    }
+}
+
 /// The centre of an arc in its plane's two coordinates (an R-format arc's
 /// centre found from the chord: RS274/NGC's rule, positive R for the arc of
-/// at most 180°).
+/// at most 180°; an R up to `r_tolerance_mm` short of half the chord is
+/// taken as half the chord, as LinuxCNC's `Interp::arc_data_r` does).
 pub fn centre_in_plane(
     start: [f64; 3],
     end: [f64; 3],
     centre: Centre,
     plane: Plane,
     clockwise: bool,
+    r_tolerance_mm: f64,
 ) -> Result<(f64, f64)> {
     let (a, b, _) = plane.axes();
     let (sa, sb, ea, eb) = (start[a], start[b], end[a], end[b]);
@@ -68,7 +138,7 @@ pub fn centre_in_plane(
                 bail!("an R-format arc cannot end where it starts");
             }
             let half = d / 2.0;
-            if r.abs() < half * (1.0 - 1e-9) {
+            if half - r.abs() > r_tolerance_mm {
                 bail!(
                     "arc radius {} mm is shorter than half the chord ({} mm)",
                     short(r.abs()),
@@ -89,7 +159,8 @@ pub fn centre_in_plane(
 /// Points of the arc from `start` to `end` (excluding `start`, including
 /// `end`), clockwise if `clockwise`, with `extra_turns` full turns added (P
 /// word − 1), each chord within `tolerance_mm` of the arc; at most
-/// `max_points` points.
+/// `max_points` points; refused if the end is too far off the start's
+/// circle (`radii`).
 #[allow(clippy::too_many_arguments)]
 pub fn points(
     start: [f64; 3],
@@ -100,6 +171,7 @@ pub fn points(
     extra_turns: f64,
     tolerance_mm: f64,
     max_points: usize,
+    radii: RadiusTolerance,
 ) -> Result<Vec<[f64; 3]>> {
     if !(extra_turns >= 0.0 && extra_turns.fract() == 0.0) {
         bail!(
@@ -115,20 +187,22 @@ pub fn points(
     }
     let (a, b, n) = plane.axes();
     let (sa, sb, ea, eb) = (start[a], start[b], end[a], end[b]);
-    let (ca, cb) = centre_in_plane(start, end, centre, plane, clockwise)?;
+    let (ca, cb) = centre_in_plane(start, end, centre, plane, clockwise, radii.radius_mm)?;
     let r0 = (sa - ca).hypot(sb - cb);
     let r1 = (ea - ca).hypot(eb - cb);
     if !(r0.is_finite() && r1.is_finite()) {
         bail!("arc radius is not finite");
     }
-    if r0 == 0.0 {
-        bail!("arc centre is at its start point");
+    if r0 < radii.radius_mm || r1 < radii.radius_mm {
+        bail!("zero-radius arc: the centre is at its start or end point (radii {r0:.4} mm and {r1:.4} mm)");
     }
-    if (r0 - r1).abs() > 0.002f64.max(1e-3 * r0) {
+    if radii.refuses(r0, r1) {
         bail!(
-            "arc radius differs at start ({} mm) and end ({} mm)",
+            "arc radius differs at start ({} mm) and end ({} mm) by more than LinuxCNC allows ({:.4} mm, or 0.1 % of the radius up to {:.4} mm)",
             short(r0),
-            short(r1)
+            short(r1),
+            radii.spiral_abs_mm,
+            100.0 * radii.spiral_abs_mm
         );
     }
     let a0 = (sb - cb).atan2(sa - ca);
@@ -205,6 +279,7 @@ mod tests {
             0.0,
             0.001,
             1_000_000,
+            RadiusTolerance::MM,
         )
         .unwrap();
         assert_eq!(*p.last().unwrap(), e);
@@ -223,6 +298,7 @@ mod tests {
             0.0,
             0.001,
             1_000_000,
+            RadiusTolerance::MM,
         )
         .unwrap();
         assert!((cw.len() as f64 / p.len() as f64 - 3.0).abs() < 0.1);
@@ -242,6 +318,7 @@ mod tests {
             0.0,
             0.001,
             1_000_000,
+            RadiusTolerance::MM,
         )
         .unwrap();
         assert!(p.iter().all(|q| q[1] >= -1e-9));
@@ -254,6 +331,7 @@ mod tests {
             0.0,
             0.001,
             1_000_000,
+            RadiusTolerance::MM,
         )
         .unwrap();
         let short = points(
@@ -265,6 +343,7 @@ mod tests {
             0.0,
             0.001,
             1_000_000,
+            RadiusTolerance::MM,
         )
         .unwrap();
         assert!(long.len() > 2 * short.len());
@@ -276,7 +355,8 @@ mod tests {
             true,
             0.0,
             0.001,
-            1_000_000
+            1_000_000,
+            RadiusTolerance::MM
         )
         .is_err());
     }
@@ -294,6 +374,7 @@ mod tests {
             1.0,
             0.01,
             1_000_000,
+            RadiusTolerance::MM,
         )
         .unwrap();
         // Two turns descending 2 mm.
@@ -309,6 +390,7 @@ mod tests {
             0.0,
             0.001,
             1_000_000,
+            RadiusTolerance::MM,
         )
         .unwrap();
         assert!(q
@@ -323,6 +405,7 @@ mod tests {
             0.0,
             0.001,
             1_000_000,
+            RadiusTolerance::MM,
         )
         .unwrap();
         assert!(long.iter().any(|p| p[2] < -4.9));
@@ -334,7 +417,8 @@ mod tests {
             false,
             0.0,
             0.01,
-            1_000_000
+            1_000_000,
+            RadiusTolerance::MM
         )
         .is_err());
     }
@@ -344,21 +428,174 @@ mod tests {
         let s = [1e12, 0.0, 0.0];
         let c = Centre::Point([0.0; 3]);
         // Radius 1e12 mm within 1 µm: ~2.2e9 chords per turn.
-        let e = points(s, s, c, Plane::Xy, false, 0.0, 0.001, 50_000_000).unwrap_err();
+        let e = points(
+            s,
+            s,
+            c,
+            Plane::Xy,
+            false,
+            0.0,
+            0.001,
+            50_000_000,
+            RadiusTolerance::MM,
+        )
+        .unwrap_err();
         assert!(e.to_string().contains("max_points"), "{e}");
         // A million turns of a 10 mm circle, and a radius of 1e16 mm.
         let s = [10.0, 0.0, 0.0];
-        assert!(points(s, s, c, Plane::Xy, false, 999_999.0, 0.001, 50_000_000).is_err());
+        assert!(points(
+            s,
+            s,
+            c,
+            Plane::Xy,
+            false,
+            999_999.0,
+            0.001,
+            50_000_000,
+            RadiusTolerance::MM
+        )
+        .is_err());
         let s = [1e16, 0.0, 0.0];
-        assert!(points(s, s, c, Plane::Xy, false, 0.0, 0.001, 50_000_000).is_err());
+        assert!(points(
+            s,
+            s,
+            c,
+            Plane::Xy,
+            false,
+            0.0,
+            0.001,
+            50_000_000,
+            RadiusTolerance::MM
+        )
+        .is_err());
         // A tolerance far below the radius: refused, not a capacity overflow.
         let s = [10.0, 0.0, 0.0];
-        assert!(points(s, s, c, Plane::Xy, false, 0.0, 1e-300, 50_000_000).is_err());
-        assert!(points(s, s, c, Plane::Xy, false, 0.0, 0.0, 50_000_000).is_err());
-        assert!(points(s, s, c, Plane::Xy, false, f64::INFINITY, 0.001, 50_000_000).is_err());
+        assert!(points(
+            s,
+            s,
+            c,
+            Plane::Xy,
+            false,
+            0.0,
+            1e-300,
+            50_000_000,
+            RadiusTolerance::MM
+        )
+        .is_err());
+        assert!(points(
+            s,
+            s,
+            c,
+            Plane::Xy,
+            false,
+            0.0,
+            0.0,
+            50_000_000,
+            RadiusTolerance::MM
+        )
+        .is_err());
+        assert!(points(
+            s,
+            s,
+            c,
+            Plane::Xy,
+            false,
+            f64::INFINITY,
+            0.001,
+            50_000_000,
+            RadiusTolerance::MM
+        )
+        .is_err());
         // Within the bound it works, and the count is what the formula says.
-        let p = points(s, s, c, Plane::Xy, false, 0.0, 0.001, 50_000_000).unwrap();
+        let p = points(
+            s,
+            s,
+            c,
+            Plane::Xy,
+            false,
+            0.0,
+            0.001,
+            50_000_000,
+            RadiusTolerance::MM,
+        )
+        .unwrap();
         let expected = (std::f64::consts::TAU / (4.0 * (0.001f64 / 20.0).sqrt().asin())).ceil();
         assert_eq!(p.len() as f64, expected);
+    }
+
+    fn read(src: &str) -> anyhow::Result<crate::toolpath::Toolpath> {
+        crate::parse("t", src, &crate::GcodeSettings::default())
+    }
+
+    #[test]
+    fn linuxcnc_radius_tolerance_at_its_limits() {
+        // LinuxCNC's own good/bad pairs (tests/interp/{good,bad}/
+        // *-arc.{small,medium,big}.{metric,imperial}.center-format.ngc):
+        // the same arcs just inside and just past each of the three
+        // regions of its rule, in mm and in inches.
+        for (units, x, i_good, i_bad) in [
+            // Absolute: radii 2·0.0099·√2 apart (good), 2·0.0101·√2 (bad).
+            (
+                "G21",
+                "50",
+                "[25 - [0.0099 * sqrt[2]]]",
+                "[25 - [0.0101 * sqrt[2]]]",
+            ),
+            (
+                "G20",
+                "5",
+                "[2.5 - [0.00099 * sqrt[2]]]",
+                "[2.5 - [0.00101 * sqrt[2]]]",
+            ),
+            // Relative: 0.0999 % (good), 0.2996 % (bad).
+            ("G21", "2000", "[0.9995 * 1000]", "[0.9985 * 1000]"),
+            ("G20", "200", "[0.9995 * 100]", "[0.9985 * 100]"),
+            // 100 × the absolute tolerance, whatever the relative error.
+            (
+                "G21",
+                "6000",
+                "[3000 + [100 * [0.0099 * sqrt[2]]]]",
+                "[3000 + [100 * [0.0101 * sqrt[2]]]]",
+            ),
+            (
+                "G20",
+                "600",
+                "[300 + [100 * [0.00099 * sqrt[2]]]]",
+                "[300 + [100 * [0.00101 * sqrt[2]]]]",
+            ),
+        ] {
+            let prog = |i: &str| format!("{units} F1\nG0 X0 Y0 Z0\nG2 X{x} I{i}\nM2\n");
+            let t = read(&prog(i_good)).unwrap_or_else(|e| panic!("{units} X{x} I{i_good}: {e:#}"));
+            // The centre is kept and the path ends on the programmed point.
+            let mm = if units == "G20" { 25.4 } else { 1.0 };
+            let end = *t.points.last().unwrap();
+            assert!(
+                (end[0] - x.parse::<f64>().unwrap() * mm).abs() < 1e-9,
+                "{end:?}"
+            );
+            let e = read(&prog(i_bad)).unwrap_err();
+            let e = format!("{e:#}");
+            assert!(e.contains("line 3") && e.contains("radius differs"), "{e}");
+        }
+    }
+
+    #[test]
+    fn arcs_grbl_reads_are_read() {
+        // Grbl (gc_execute_line): up to 0.005 mm apart at any radius, and
+        // up to 0.1 % of the radius below 0.5 mm.
+        assert!(read("G21 F1\nG0 X0 Y0\nG2 X2.004 I1\n").is_ok());
+        assert!(read("G21 F1\nG0 X0 Y0\nG2 X1000 I499.8\n").is_ok());
+        // An inch program rounded to 4 decimals (CAM posts): a 0.05 in
+        // radius ending one digit off, 2.5 µm, more than the old 2 µm.
+        assert!(read("G20 F1\nG0 X0 Y0\nG3 X0.1001 Y0 I0.05 J0\n").is_ok());
+    }
+
+    #[test]
+    fn r_words_may_fall_short_of_half_the_chord_by_linuxcnc_s_radius_tolerance() {
+        // RADIUS_TOLERANCE: 0.00127 mm in G21, 0.00005 in in G20.
+        assert!(read("G21 F1\nG0 X0 Y0\nG2 X10 R4.9990\n").is_ok());
+        assert!(read("G21 F1\nG0 X0 Y0\nG2 X10 R4.9985\n").is_err());
+        assert!(read("G20 F1\nG0 X0 Y0\nG2 X1 R0.49996\n").is_ok());
+        assert!(read("G20 F1\nG0 X0 Y0\nG2 X1 R0.49994\n").is_err());
     }
 }

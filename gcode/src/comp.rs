@@ -227,7 +227,7 @@ impl Comp {
             bail!("line {line}: the first move after G41/G42 must be straight (an arc entry move is not supported)");
         }
         let p0 = self.prog;
-        let (cx, cy) = centre_in_plane(p0, to, centre, Plane::Xy, cw)
+        let (cx, cy) = centre_in_plane(p0, to, centre, Plane::Xy, cw, out.arc_tolerance.radius_mm)
             .map_err(|e| anyhow::anyhow!("line {line}: {e}"))?;
         let r0 = (p0[0] - cx).hypot(p0[1] - cy);
         let r1 = (to[0] - cx).hypot(to[1] - cy);

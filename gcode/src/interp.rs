@@ -18,7 +18,7 @@ use std::sync::Arc;
 
 use anyhow::{anyhow, bail, Context, Result};
 
-use super::arc::{Centre, Plane};
+use super::arc::{Centre, Plane, RadiusTolerance};
 use super::comp::{Comp, Side};
 use super::cycles;
 use super::expr::{parameter_number, Params, MAX_PARAMETER};
@@ -28,7 +28,7 @@ use super::parse::{Keyword, Label, Stmt};
 use super::program::{File, Jump, Opened};
 use super::sink::Sink;
 use super::text::short;
-use super::{ExtraAxes, GcodeSettings};
+use super::{ExtraAxes, GcodeSettings, InitialMotion};
 
 /// Axis letters in parameter order.
 pub const AXES: [char; 9] = ['X', 'Y', 'Z', 'A', 'B', 'C', 'U', 'V', 'W'];
@@ -142,6 +142,9 @@ struct CallInfo {
     label: Label,
     saved: [f64; 30],
     modal: Option<Modal>,
+    /// An `M98` call: the `O` line it started at and the passes left after
+    /// this one.
+    m98: Option<(usize, u64)>,
 }
 
 /// Modal state saved by M70/M73 (LinuxCNC `save_settings`).
@@ -163,8 +166,8 @@ struct Modal {
 pub struct ToolData {
     /// Radius, mm.
     pub radius_mm: f64,
-    /// Length offset (Z), mm.
-    pub length_mm: f64,
+    /// Offsets X Y Z A B C U V W (Z: the length), mm (degrees for A B C).
+    pub offset_mm: [f64; 9],
 }
 
 /// The modes in force ([`Interp::modes`]).
@@ -222,6 +225,8 @@ pub struct Interp {
     /// Selected plane.
     pub plane: Plane,
     pub(super) motion: Option<Motion>,
+    /// `motion` is still `gcode.initial_motion`, unused.
+    motion_initial: bool,
     feed: Option<f64>,
     feed_mode: FeedMode,
     rpm: f64,
@@ -247,6 +252,9 @@ pub struct Interp {
     frames: Vec<Frame>,
     files: Vec<File>,
     subs: HashMap<Label, (usize, usize)>,
+    /// Fanuc program numbers (`O1000` lines) of each file, found when an
+    /// `M98` first needs them: number → line indices.
+    programs: HashMap<usize, HashMap<u32, Vec<usize>>>,
     dir: Option<PathBuf>,
     saved_modal: Option<Modal>,
     value: f64,
@@ -329,18 +337,48 @@ impl Interp {
         params[P_COORD] = 1.0;
         let mut tools = HashMap::new();
         for t in &s.tools {
+            let mut offset_mm = [0.0; 9];
+            offset_mm[2] = t.length_mm;
             tools.insert(
                 t.number,
                 ToolData {
                     radius_mm: t.diameter_mm / 2.0,
-                    length_mm: t.length_mm,
+                    offset_mm,
                 },
             );
+        }
+        if let Some(path) = &s.tool_table {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("reading gcode.tool_table {}", path.display()))?;
+            let table = super::tool_table::parse(&text)
+                .with_context(|| format!("in gcode.tool_table {}", path.display()))?;
+            for r in table {
+                if tools.contains_key(&r.number) {
+                    bail!(
+                        "tool {} is both in gcode.tools and in gcode.tool_table {}",
+                        r.number,
+                        path.display()
+                    );
+                }
+                tools.insert(
+                    r.number,
+                    ToolData {
+                        radius_mm: r.diameter / 2.0,
+                        offset_mm: r.offset,
+                    },
+                );
+            }
         }
         let mut pos = [0.0; 9];
         pos[..3].copy_from_slice(&s.start_mm);
         let out = Sink::new(s.start_mm, s.limits.max_points, s.chord_tolerance_mm);
         let initial_tool = s.initial_tool;
+        let initial_motion = match s.initial_motion {
+            InitialMotion::None => None,
+            InitialMotion::G0 => Some(Motion::Rapid),
+            InitialMotion::G1 => Some(Motion::Linear),
+        };
+        let motion_initial = s.initial_motion != InitialMotion::None;
         let mut it = Interp {
             s,
             pos,
@@ -348,7 +386,8 @@ impl Interp {
             absolute: true,
             arc_absolute: false,
             plane: Plane::Xy,
-            motion: None,
+            motion: initial_motion,
+            motion_initial,
             feed: None,
             feed_mode: FeedMode::PerMinute,
             rpm: 0.0,
@@ -372,6 +411,7 @@ impl Interp {
             frames: Vec::new(),
             files: Vec::new(),
             subs: HashMap::new(),
+            programs: HashMap::new(),
             dir,
             saved_modal: None,
             value: 0.0,
@@ -770,6 +810,10 @@ impl Interp {
         let stmt = l.stmt.clone();
         let block_delete = l.block_delete;
         let r = match &stmt {
+            Stmt::Skipped(why) => {
+                self.out.warn(line, why.clone());
+                Ok(true)
+            }
             Stmt::Percent => {
                 if self.percent_seen || self.any_content {
                     return Ok(Some(Stop::Ended));
@@ -993,7 +1037,7 @@ impl Interp {
                 };
                 self.goto(end + 1);
             }
-            Keyword::EndIf | Keyword::Do => {}
+            Keyword::EndIf | Keyword::Do | Keyword::Program => {}
             Keyword::While => match self.jump(fi, pc)? {
                 Jump::LoopStart { end } => {
                     if self.eval_args(args)?[0] == 0.0 {
@@ -1133,6 +1177,7 @@ impl Interp {
                 label: label.clone(),
                 saved,
                 modal: None,
+                m98: None,
             }),
             locals: HashMap::new(),
             repeats: HashMap::new(),
@@ -1147,6 +1192,16 @@ impl Interp {
         let Some(c) = &f.call else {
             bail!("{label} return or endsub reached outside a call");
         };
+        if c.m98.is_some() {
+            bail!(
+                "{label} {}: the Fanuc subprogram O{} called by M98 ends with M99 (LinuxCNC: \"Fanuc 'O....' subroutine definition must end with 'M99'\")",
+                if endsub { "endsub" } else { "return" },
+                match &c.label {
+                    Label::Number(n) => n.to_string(),
+                    Label::Name(s) => s.clone(),
+                }
+            );
+        }
         if endsub && &c.label != label {
             bail!("{label} return inside {} sub", c.label);
         }
@@ -1177,6 +1232,7 @@ impl Interp {
 
     fn restore(&mut self, m: &Modal) -> Result<()> {
         self.units = m.units;
+        self.out.arc_tolerance = RadiusTolerance::for_units(self.units);
         self.absolute = m.absolute;
         self.arc_absolute = m.arc_absolute;
         self.plane = m.plane;
@@ -1422,6 +1478,8 @@ impl Interp {
                     self.selected_tool = q as u32;
                 }
                 0 | 1 | 2 | 30 | 60 => {}
+                // After the block's motion (see `Interp::m98`).
+                98 | 99 => {}
                 3..=5 => self.out.m_word(line, m, self.rpm),
                 // After the spindle words (RS274/NGC's order of execution).
                 7..=9 | 19 | 48..=53 => {}
@@ -1463,8 +1521,10 @@ impl Interp {
                 (17, 0) => self.plane = Plane::Xy,
                 (18, 0) => self.plane = Plane::Zx,
                 (19, 0) => self.plane = Plane::Yz,
-                (20, 0) => self.units = 25.4,
-                (21, 0) => self.units = 1.0,
+                (20, 0) | (21, 0) => {
+                    self.units = if g == 20 { 25.4 } else { 1.0 };
+                    self.out.arc_tolerance = RadiusTolerance::for_units(self.units);
+                }
                 (7, 0) => self.diameter_mode = true,
                 (8, 0) => self.diameter_mode = false,
                 (96, 0) => self.css = true,
@@ -1521,15 +1581,27 @@ impl Interp {
                 Some(h) => bail!("line {line}: H{} is not a tool number", short(h)),
                 None => self.current_tool,
             };
-            let len = match self.tools.get(&t) {
-                Some(td) => td.length_mm,
-                None if t == 0 => 0.0,
-                None => bail!("line {line}: G43: tool {t} is not in the tool table (gcode.tools)"),
+            let off = match self.tools.get(&t) {
+                Some(td) => td.offset_mm,
+                None if t == 0 => [0.0; 9],
+                None if self.s.strict_tools => bail!(
+                    "line {line}: G43: tool {t} is not in the tool table (gcode.tools, gcode.tool_table; gcode.strict_tools is on)"
+                ),
+                None => {
+                    // See `GcodeSettings::strict_tools`.
+                    self.out.warn(
+                        line,
+                        format!("G43: tool {t} is not in the tool table: its length is taken as 0 (give it in gcode.tool_table or gcode.tools; gcode.strict_tools = true refuses this)"),
+                    );
+                    [0.0; 9]
+                }
             };
             if b.has_g(43, 0) {
                 self.tlo = [0.0; 9];
             }
-            self.tlo[2] += len;
+            for (v, o) in self.tlo.iter_mut().zip(off) {
+                *v += o;
+            }
         }
         if b.has_g(43, 1) {
             self.tlo = [0.0; 9];
@@ -1579,6 +1651,7 @@ impl Interp {
                 bail!("line {line}: G80 with axis words");
             }
             self.motion = None;
+            self.motion_initial = false;
             self.cycle = CycleState::default();
         }
         if b.has_g(5, 3) {
@@ -1624,11 +1697,22 @@ impl Interp {
                 }
             }
             self.motion = Some(m);
+            self.motion_initial = false;
         }
         if b.has_axis() && !axis_words_used {
             let Some(m) = self.motion else {
-                bail!("line {line}: axis words without a motion mode (G0/G1/G2/G3)");
+                bail!("line {line}: axis words without a motion mode (G0/G1/G2/G3; before the first, gcode.initial_motion = \"g0\" reads them as G0 as Grbl does)");
             };
+            if self.motion_initial {
+                self.motion_initial = false;
+                self.out.warn(
+                    line,
+                    format!(
+                        "axis words before any motion code: read as {} (gcode.initial_motion; \"none\" refuses them as LinuxCNC does)",
+                        if m == Motion::Rapid { "G0" } else { "G1" }
+                    ),
+                );
+            }
             if g53 && !matches!(m, Motion::Rapid | Motion::Linear) {
                 bail!("line {line}: G53 needs G0 or G1");
             }
@@ -1636,6 +1720,16 @@ impl Interp {
                 bail!("line {line}: G53 in incremental mode (G91)");
             }
             self.motion_block(b, m, g53)?;
+        }
+        let (m98, m99) = (b.m.contains(&98), b.m.contains(&99));
+        if (m98 || m99) && b.m.iter().any(|&m| m == 2 || m == 30) || m98 && m99 {
+            bail!("line {line}: M98, M99, M2 and M30 end or leave the block's program: one of them per block");
+        }
+        if m98 {
+            self.m98(b)?;
+        }
+        if m99 {
+            return self.m99(b);
         }
         if b.m.iter().any(|&m| m == 2 || m == 30) {
             return Ok(false);
@@ -1675,6 +1769,140 @@ impl Interp {
             line,
         });
         Ok(())
+    }
+
+    /// `M98 P<n> [L<passes>]`: run the Fanuc subprogram `O<n>` (an `O<n>`
+    /// line, its end the first `M99` executed) `L` times (default 1; `L0`
+    /// skips the call). As LinuxCNC does it (`interp_read.cc`,
+    /// `Interp::read_o`; `interp_o_word.cc`, `Interp::execute_call`,
+    /// `CT_NGC_M98_SUB`): #1-#30 are passed through, not saved and
+    /// restored as `o… call` does, and `O<n>` is looked for in the calling
+    /// file, then in the main program (LinuxCNC then looks for a file named
+    /// `<n>.ngc`; we do not). LinuxCNC takes M98 only as the first word of
+    /// a line; we take it anywhere in a block and call after the block's
+    /// motion, where grblHAL does (`gcode.c`, `gc_execute_line`,
+    /// `MacroCall_NonModal98`, after the motion and before program flow).
+    /// Fanuc can pack the passes into P (`P30100`: 3 × O100); LinuxCNC,
+    /// grblHAL and Mach3 read P as the number and L as the passes, so do we.
+    /// Passes and nesting are bounded by `gcode.limits`.
+    fn m98(&mut self, b: &Blk) -> Result<()> {
+        let line = b.line;
+        let p = b
+            .get('P')
+            .ok_or_else(|| anyhow!("line {line}: M98 needs P, the program number to call"))?;
+        if !(p >= 0.0 && p.fract() == 0.0 && p <= u32::MAX as f64) {
+            bail!("line {line}: M98 P{p} is not a program number");
+        }
+        let n = p as u32;
+        let passes = match b.get('L') {
+            None => 1,
+            Some(l) if l >= 0.0 && l.fract() == 0.0 => l.min(u64::MAX as f64) as u64,
+            Some(l) => bail!("line {line}: M98 L{l} is not a number of passes"),
+        };
+        if passes == 0 {
+            return Ok(());
+        }
+        let depth = self.frames.len();
+        if depth > self.s.limits.max_call_depth {
+            bail!(
+                "line {line}: M98 P{n}: more than gcode.limits.max_call_depth = {} nested calls (endless recursion?)",
+                self.s.limits.max_call_depth
+            );
+        }
+        let here = self.frames.last().map_or(0, |f| f.file);
+        let mut found = None;
+        for fi in [here, 0] {
+            if let Some(at) = self.find_program(fi, n, line)? {
+                found = Some((fi, at));
+                break;
+            }
+        }
+        let Some((fi, at)) = found else {
+            let hint = if n >= 10_000 && b.get('L').is_none() {
+                format!(" (Fanuc's P that packs passes and number, P{}{:04} for {} × O{}, is not read: write M98 P{} L{})", n / 10_000, n % 10_000, n / 10_000, n % 10_000, n % 10_000, n / 10_000)
+            } else {
+                String::new()
+            };
+            bail!("line {line}: M98 P{n}: no O{n} line (a Fanuc subprogram: O{n} … M99) in the program{hint}");
+        };
+        self.frames.push(Frame {
+            file: fi,
+            pc: at + 1,
+            call: Some(CallInfo {
+                label: Label::Number(n),
+                saved: [0.0; 30],
+                modal: None,
+                m98: Some((at, passes - 1)),
+            }),
+            locals: HashMap::new(),
+            repeats: HashMap::new(),
+        });
+        Ok(())
+    }
+
+    /// The line of `O<n>` in file `fi`, if there is one; two are an error.
+    fn find_program(&mut self, fi: usize, n: u32, line: u32) -> Result<Option<usize>> {
+        let Some(file) = self.files.get(fi) else {
+            return Ok(None);
+        };
+        let index = self.programs.entry(fi).or_insert_with(|| {
+            let mut m: HashMap<u32, Vec<usize>> = HashMap::new();
+            for i in 0..file.lines.len() {
+                if let Some((Label::Number(k), Keyword::Program)) = file.oword(i) {
+                    m.entry(*k).or_default().push(i);
+                }
+            }
+            m
+        });
+        match index.get(&n).map(Vec::as_slice) {
+            None | Some([]) => Ok(None),
+            Some([at]) => Ok(Some(*at)),
+            Some([a, b, ..]) => bail!(
+                "line {line}: M98 P{n}: O{n} is on lines {} and {}",
+                file.lines[*a].number,
+                file.lines[*b].number
+            ),
+        }
+    }
+
+    /// `M99`: the end of a pass of an `M98` subprogram (the next pass, or
+    /// back to the caller). In the main program it ends the program: a
+    /// Fanuc or Mach3 control would start the program over, endlessly (a
+    /// bar feeder's loop); LinuxCNC loops only in its task with
+    /// `[RS274NGC]FEATURES` bit 5 and ends the program elsewhere, its
+    /// preview included (`interp_convert.cc`, `Interp::convert_stop`,
+    /// `loop_on_main_m99`), and so does grblHAL (`gcode.c`,
+    /// `gc_execute_line`, `ProgramFlow_Return` without a macro to return
+    /// from). A toolpath is one pass. `M99` inside an `o… sub` is an
+    /// error, as in LinuxCNC (`interp_o_word.cc`,
+    /// `Interp::convert_control_functions`).
+    fn m99(&mut self, b: &Blk) -> Result<bool> {
+        let line = b.line;
+        if b.get('P').is_some() {
+            bail!("line {line}: M99 P (return to a numbered line of the caller) is not supported");
+        }
+        let Some(f) = self.frames.last_mut() else {
+            return Ok(false);
+        };
+        let Some(c) = f.call.as_mut() else {
+            return Ok(false); // the main program
+        };
+        match c.m98.as_mut() {
+            None => bail!(
+                "line {line}: M99 inside {} sub, which ends with {} endsub or {} return (LinuxCNC: \"'O.... endsub' or 'O.... return' must follow 'O.... sub'\")",
+                c.label,
+                c.label,
+                c.label
+            ),
+            Some((at, left)) if *left > 0 => {
+                *left -= 1;
+                f.pc = *at + 1;
+            }
+            Some(_) => {
+                self.frames.pop();
+            }
+        }
+        Ok(true)
     }
 
     fn comp_check(&self, line: u32, what: &str) -> Result<()> {
@@ -1817,7 +2045,7 @@ impl Interp {
                     t.radius_mm = r * self.units;
                 }
                 if let Some(z) = b.get('Z') {
-                    t.length_mm = if l as u32 == 1 {
+                    t.offset_mm[2] = if l as u32 == 1 {
                         z * self.units
                     } else {
                         // The length that makes the current Z read `z`.
@@ -2195,6 +2423,7 @@ impl Interp {
             }
             self.pos[..3].copy_from_slice(&last);
             self.motion = None;
+            self.motion_initial = false;
         }
         Ok(())
     }
@@ -2303,7 +2532,8 @@ pub fn program_dir(path: &Path) -> Option<PathBuf> {
 
 #[cfg(test)]
 mod tests {
-    use crate::{parse, GcodeSettings};
+    use crate::toolpath::Toolpath;
+    use crate::{parse, run, GcodeSettings};
 
     fn err(src: &str) -> String {
         match parse("t", src, &GcodeSettings::default()) {
@@ -2409,5 +2639,70 @@ mod tests {
         // The offsets of the plane are fine.
         let s = GcodeSettings::default();
         assert!(parse("t", "G1 X1 F100\nG18 G2 X3 Z0 I1 K0\n", &s).is_ok());
+    }
+
+    fn p(src: &str) -> anyhow::Result<Toolpath> {
+        crate::parse("t", src, &GcodeSettings::default())
+    }
+
+    #[test]
+    fn fanuc_program_numbers_and_m98_subprograms() {
+        // A Mach3/Fanuc file: % framing, O header with a name, the
+        // subprogram after M30, called three times.
+        let src = "%\nO0001 (MAIN)\nG21 G90 G0 X0 Y0 Z0\nM98 P1000 L3\nG0 X0 Y0\nM30\nO1000 (STEP)\nG91 G1 X1 F100\nG90\nM99\n%\n";
+        let t = p(src).unwrap();
+        let xs: Vec<f64> = t.points.iter().map(|q| q[0]).collect();
+        assert_eq!(xs, vec![0.0, 1.0, 2.0, 3.0, 0.0]);
+        assert_eq!(t.lines, vec![0, 8, 8, 8, 5]);
+        // Inch: the subprogram runs in the caller's units.
+        let t = p(&src.replace("G21", "G20")).unwrap();
+        assert_eq!(t.points[3][0], 3.0 * 25.4);
+        // No L: once; L0: not at all; a block's motion before its call.
+        let t = p("G0 X0\nG0 X5 M98 P7\nM30\nO7\nG1 Y1 F10\nM99\n").unwrap();
+        assert_eq!(t.points[1..], [[5.0, 0.0, 0.0], [5.0, 1.0, 0.0]]);
+        let t = p("G0 X1\nM98 P7 L0\nM30\nO7\nG1 Y1 F10\nM99\n").unwrap();
+        assert_eq!(t.points.len(), 2);
+        // Nested subprograms, #1 passed through (not saved as o-call does).
+        let t = p("#1=2\nM98 P1\nG0 X#1\nM30\nO1\nM98 P2 L2\nM99\nO2\n#1=[#1+1]\nM99\n").unwrap();
+        assert_eq!(t.points.last().unwrap()[0], 4.0);
+        // A program without M30 that runs into its subprogram: the O line
+        // is passed, and M99 in the main program ends it.
+        let t = p("G0 X1\nO100\nG0 X2\nM99\nG0 X3\n").unwrap();
+        assert_eq!(t.points.last().unwrap()[0], 2.0);
+    }
+
+    #[test]
+    fn fanuc_subprogram_errors_name_the_line() {
+        for (src, want) in [
+            ("G0 X1\nM98 P5\nM30\n", "line 2: M98 P5: no O5"),
+            ("M98\n", "line 1: M98 needs P"),
+            ("M98 P1.5\n", "line 1"),
+            ("M98 P1 L-1\nM30\nO1\nM99\n", "line 1"),
+            ("M98 P30100\nM30\nO100\nM99\n", "M98 P100 L3"),
+            ("M98 P1\nM30\nO1\nG0 X1\n", "ended inside subroutine"),
+            ("M98 P1\nM30\no2 sub\nO1\no2 endsub\n", "ends with M99"),
+            (
+                "o1 call\nM30\no1 sub\nM99\no1 endsub\n",
+                "line 4: M99 inside o1 sub",
+            ),
+            ("M98 P1\nM30\nO1\nM99 P10\n", "line 4"),
+            ("M98 P1 M30\n", "line 1"),
+            ("M98 P1\nM30\nO1\nM99\nO1\nM99\n", "lines 3 and 5"),
+            // Endless recursion stops at the call depth.
+            ("M98 P1\nM30\nO1\nM98 P1\nM99\n", "max_call_depth"),
+        ] {
+            let e = err(src);
+            assert!(e.contains(want), "{src:?}: {e}");
+        }
+        // Passes are bounded by the executed-lines limit.
+        let s = GcodeSettings {
+            limits: crate::Limits {
+                max_executed_lines: 1000,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let e = run("M98 P1 L100000000000\nM30\nO1\nM99\n", None, &s).unwrap_err();
+        assert!(format!("{e:#}").contains("max_executed_lines"), "{e:#}");
     }
 }

@@ -31,14 +31,15 @@
 //! | words | handling |
 //! |---|---|
 //! | G0 G1, G53 | straight moves; G0 at the configured rapid feed |
-//! | G2 G3 (I J K or R, P turns) | arcs and helices within the chord tolerance |
+//! | G2 G3 (I J K or R, P turns) | arcs and helices within the chord tolerance; an end off the start's circle within LinuxCNC's tolerance is a spiral to it ([`arc::RadiusTolerance`]) |
 //! | G5 G5.1, G5.2 … G5.3, G6.2 | cubic and quadratic splines, NURBS blocks (any plane for G5.2, G6.2) |
+//! | axis words before any G0-G3 | read as G0 with a warning (`gcode.initial_motion`: `"g0"`, the default, as Grbl; `"g1"`; `"none"` refuses them, as LinuxCNC) |
 //! | G17 G18 G19, G20 G21, G90 G91, G90.1 G91.1, G7 G8 | plane, units, distance modes, lathe diameter mode |
 //! | F with G93 G94 G95, S | feed caps: per minute, inverse time (F × move length), per revolution (F × S) |
 //! | G28 G30 (with axis words: via that point), G28.1 G30.1 | to the reference positions (`[gcode.reference_positions]`, #5161-5169, #5181-5189) |
 //! | G92 G92.1 G92.2 G92.3, G52 | axis offsets (#5210-5219) |
 //! | G54-G59.3, G10 L2 / L20 | work offsets (`[gcode.work_offsets]`, #5221-5390) |
-//! | T, M6, M61, G43 H, G43.1, G43.2, G49, G10 L1/L10/L11 | tools (`[[gcode.tools]]`): length offset along Z, radius for compensation |
+//! | T, M6, M61, G43 H, G43.1, G43.2, G49, G10 L1/L10/L11 | tools (`[[gcode.tools]]`, or a LinuxCNC `tool.tbl` in `gcode.tool_table`: [`tool_table`]): offsets (length along Z), radius for compensation; G43 of a tool not in the table: length 0 and a warning (`gcode.strict_tools = true`: refused) |
 //! | G40 G41 G42 G41.1 G42.1 (D) | cutter radius compensation, XY plane |
 //! | G73 G74 G81-G89, G80, G98 G99, L repeats | canned cycles expanded into moves (G88 refused) |
 //! | G33 | a straight move at K × S |
@@ -46,10 +47,12 @@
 //! | A B C U V W | carried (offsets, references, parameters); a move that drives one is refused by name unless `gcode.extra_axes = "ignore"` |
 //! | M3-M5 (with S), M7-M9, S while the spindle runs | no effect on the path; machine events in order with it (`Toolpath::events`: after which point) |
 //! | M0 M1 M19 M48-M53 M62-M65 M67 M68, G4, G61 G61.1 G64, G96 G97, comments, N, `/` lines (block delete on) | no effect on the path |
+//! | `O1000` program numbers, `M98 P<n> L<passes>`, `M99` | Fanuc/Mach3 subprograms (`O<n>` … `M99`, usually after M30) on the O-word machinery; `M99` in the main program ends it (LinuxCNC's preview and grblHAL; Fanuc and Mach3 would loop) |
 //! | M2 M30, a second `%` | end of program |
 //! | M70-M73 | modal state saved and restored |
 //! | G38.2 G38.3 G38.4 G38.5 | a probing move run by the [`machine::Machine`]: #5061-#5069 the trip position (program coordinates), #5070 whether it tripped; G38.2/.4 that do not trip are errors. Reading a file ahead of time: refused, "needs live machine state" |
 //! | M66 inputs, M100-M199, `#<_hal[…]>`, `#<_ini[…]>`, G88 | refused: "needs live machine state" |
+//! | `$H`, `$X`, `$32=1`, `$J=…` and other Grbl system commands | refused by name: "send it from the sender or its console"; the queries `$` `$$` `$#` `$G` `$I` `$N` are skipped with a warning ([`grbl_system`]) |
 //! | anything else (G76, G70-G72, G33.1, rotation in G10, …) | **error naming the file, line and feature** |
 //!
 //! Every point keeps its source line, and the feed of its block (or the
@@ -61,6 +64,7 @@ pub mod arc;
 pub mod comp;
 pub mod cycles;
 pub mod expr;
+pub mod grbl_system;
 pub mod inputs;
 pub mod interp;
 pub mod machine;
@@ -73,6 +77,7 @@ pub mod shapes;
 pub mod sink;
 pub mod state;
 pub mod text;
+pub mod tool_table;
 pub mod toolpath;
 
 use std::path::{Path, PathBuf};
@@ -98,6 +103,9 @@ pub struct GcodeSettings {
     pub extra_axes: ExtraAxes,
     /// Retract between pecks of G73/G83 without a D word, mm.
     pub peck_clearance_mm: f64,
+    /// The motion mode when the program starts: what axis words before the
+    /// first G0/G1/G2/G3 do ([`InitialMotion`]).
+    pub initial_motion: InitialMotion,
     /// Tool loaded when the program starts (0: none).
     pub initial_tool: u32,
     /// Where `o<name> call` looks for `name.ngc` after the program's own
@@ -114,6 +122,23 @@ pub struct GcodeSettings {
     /// `reference_positions`) and, for a live program, written back when
     /// they change.
     pub var_file: Option<PathBuf>,
+    /// A tool table file in LinuxCNC's format ([`tool_table`], values in
+    /// mm), read when a program starts; its tools are added to `tools` (a
+    /// tool in both is an error). Relative to the configuration file's
+    /// folder when read from one.
+    pub tool_table: Option<PathBuf>,
+    /// Refuse `G43 H<n>` (or `G43` after `T<n> M6`) for a tool that is
+    /// not in the table, as LinuxCNC does ("Requested tool %d not found in
+    /// the tool table": `interp_find.cc`, `Interp::find_tool_index`). Off
+    /// (the default): its offsets are taken as 0 with a warning, as a
+    /// controller with a fixed-size table reads a slot nobody set (grblHAL
+    /// `gcode.c`, `gc_execute_line`, G43: every entry below `n_tools`
+    /// exists and is zero until set). CAM posts (Fusion 360, Mach3,
+    /// LinuxCNC) emit `T1 M6` `G43 H1` whatever the machine's table holds,
+    /// and a toolpath with the tool's length unknown is still the path
+    /// programmed, shifted along Z by that length. G41/G42 of an unknown
+    /// tool stay refused: a radius of 0 would change the path's shape.
+    pub strict_tools: bool,
     /// Resource bounds.
     pub limits: Limits,
 }
@@ -127,12 +152,15 @@ impl Default for GcodeSettings {
             block_delete: true,
             extra_axes: ExtraAxes::Refuse,
             peck_clearance_mm: 1.0,
+            initial_motion: InitialMotion::G0,
             initial_tool: 0,
             subroutine_dirs: Vec::new(),
             reference_positions: ReferencePositions::default(),
             work_offsets: WorkOffsets::default(),
             tools: Vec::new(),
             var_file: None,
+            tool_table: None,
+            strict_tools: false,
             limits: Limits::default(),
         }
     }
@@ -145,7 +173,14 @@ impl GcodeSettings {
     pub fn read_config_file(path: &Path) -> Result<Self> {
         let text =
             std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-        Self::from_config_text(&text).with_context(|| format!("in {}", path.display()))
+        let mut s =
+            Self::from_config_text(&text).with_context(|| format!("in {}", path.display()))?;
+        if let (Some(t), Some(dir)) = (&s.tool_table, path.parent()) {
+            if t.is_relative() {
+                s.tool_table = Some(dir.join(t));
+            }
+        }
+        Ok(s)
     }
 
     /// [`GcodeSettings::read_config_file`] of TOML text.
@@ -224,6 +259,31 @@ pub enum ExtraAxes {
     Refuse,
     /// Keep X Y Z, drop the others.
     Ignore,
+}
+
+/// The motion mode a program starts in (`gcode.initial_motion`).
+///
+/// Axis words before any motion code (`T1 M6` then `Z10`): rs274ngc
+/// refuses them (LinuxCNC starts in G80, no motion mode:
+/// `rs274ngc_pre.cc`, `Interp::init`; `interp_internal.cc`,
+/// `Interp::enhance_block`: "Cannot use axis values without a g code that
+/// uses them"); Grbl starts in G0 (`grbl/gcode.c`, `gc_init` clears the
+/// state and `MOTION_MODE_SEEK` is 0, "Default: Must be zero"), and so does
+/// grblHAL (`gcode.c`, `gc_init`; `gcode.h`, `MotionMode_Seek = 0`). The default is G0: this controller's
+/// programs come through a sender from Grbl users and Grbl posts, and a
+/// file Grbl runs should run here with the same moves; the first such line
+/// is reported as a warning, so the choice is visible. `none` reads as
+/// LinuxCNC. Only the start is affected: after G80 axis words are refused
+/// again, as in both peers.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum InitialMotion {
+    /// No motion mode: axis words before a motion code are refused.
+    None,
+    /// G0.
+    G0,
+    /// G1.
+    G1,
 }
 
 /// G28 and G30 positions, machine coordinates, mm (X Y Z).
@@ -322,6 +382,9 @@ pub struct Program {
     pub lines: Vec<u32>,
     /// Spindle and coolant commands: after which point, source line, what.
     pub events: Vec<(usize, u32, crate::toolpath::MachineEvent)>,
+    /// What was read other than as written: source line, text (in program
+    /// order; one per occurrence).
+    pub warnings: Vec<(u32, String)>,
 }
 
 /// Run G-code text; `dir` is where its subroutine files are.
@@ -339,6 +402,7 @@ pub fn run(src: &str, dir: Option<&Path>, settings: &GcodeSettings) -> Result<Pr
         caps: out.caps,
         lines: out.lines,
         events: out.events,
+        warnings: out.warnings,
     })
 }
 
@@ -350,6 +414,14 @@ pub fn parse(name: &str, src: &str, settings: &GcodeSettings) -> Result<Toolpath
 
 /// Read a G-code file; errors name the file and the line.
 pub fn read(path: &Path, settings: &GcodeSettings) -> Result<Toolpath> {
+    read_with_warnings(path, settings).map(|(t, _)| t)
+}
+
+/// [`read`], with the program's warnings ([`Program::warnings`]).
+pub fn read_with_warnings(
+    path: &Path,
+    settings: &GcodeSettings,
+) -> Result<(Toolpath, Vec<(u32, String)>)> {
     let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
     let text = String::from_utf8_lossy(&bytes);
     let name = path
@@ -357,8 +429,9 @@ pub fn read(path: &Path, settings: &GcodeSettings) -> Result<Toolpath> {
         .map_or("gcode".into(), |s| s.to_string_lossy().into_owned());
     let p = run(&text, interp::program_dir(path).as_deref(), settings)
         .with_context(|| format!("in {}", path.display()))?;
-    Toolpath::with_events(name, p.points, p.caps, p.lines, p.events)
-        .with_context(|| format!("in {}", path.display()))
+    let t = Toolpath::with_events(name, p.points, p.caps, p.lines, p.events)
+        .with_context(|| format!("in {}", path.display()))?;
+    Ok((t, p.warnings))
 }
 
 #[cfg(test)]
@@ -476,6 +549,46 @@ mod tests {
             [t.points[dwells[0].0][0], t.points[dwells[1].0][0]],
             [1.0, 2.0]
         );
+    }
+
+    #[test]
+    fn axis_words_before_any_motion_code_follow_gcode_initial_motion() {
+        let src = "G21 G90\nT1 M6\nZ10\nX5\nG1 X6 F100\n";
+        let run_with = |m| {
+            let s = GcodeSettings {
+                initial_motion: m,
+                ..Default::default()
+            };
+            run(src, None, &s)
+        };
+        // Default: G0 (Grbl), with one warning at the first such line.
+        let p = run_with(InitialMotion::G0).unwrap();
+        assert_eq!(p.points[1..3], [[0.0, 0.0, 10.0], [5.0, 0.0, 10.0]]);
+        assert_eq!(p.caps[1], Some(48_000.0));
+        assert_eq!(p.warnings.len(), 1);
+        assert_eq!(p.warnings[0].0, 3);
+        assert!(p.warnings[0].1.contains("read as G0"));
+        // In inch as in mm.
+        let t = parse("i", "G20\nZ1\n", &GcodeSettings::default()).unwrap();
+        assert_eq!(t.points[1], [0.0, 0.0, 25.4]);
+        // G1: a feed move, which needs a feed.
+        let e = format!("{:#}", run_with(InitialMotion::G1).unwrap_err());
+        assert!(e.contains("line 3") && e.contains("feed"), "{e}");
+        // None: LinuxCNC's refusal.
+        let e = format!("{:#}", run_with(InitialMotion::None).unwrap_err());
+        assert!(
+            e.contains("line 3: axis words without a motion mode"),
+            "{e}"
+        );
+        // After G80 axis words are refused whatever the setting.
+        assert!(p_err_line("G80\nX1\n", "line 2"));
+        // The TOML names.
+        let s = GcodeSettings::from_config_text("[gcode]\ninitial_motion = \"none\"\n").unwrap();
+        assert_eq!(s.initial_motion, InitialMotion::None);
+    }
+
+    fn p_err_line(src: &str, line: &str) -> bool {
+        p(src).is_err_and(|e| format!("{e:#}").contains(line))
     }
 
     #[test]

@@ -111,6 +111,8 @@ pub struct Collect {
     pub lines: Vec<u32>,
     /// Machine commands: after which point, source line, what.
     pub events: Vec<(usize, u32, MachineEvent)>,
+    /// Warnings: source line, text.
+    pub warnings: Vec<(u32, String)>,
 }
 
 impl Machine for Collect {
@@ -125,6 +127,7 @@ impl Machine for Collect {
                 let at = self.points.len().saturating_sub(1);
                 self.events.push((at, line, event));
             }
+            Item::Warning { line, text } => self.warnings.push((line, text)),
         }
         Ok(())
     }

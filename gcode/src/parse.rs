@@ -78,6 +78,11 @@ pub enum Keyword {
     Break,
     /// `continue`.
     Continue,
+    /// A bare `O1000` (no keyword): a Fanuc-style program number, the start
+    /// of a subprogram that `M98 P1000` calls and `M99` ends (LinuxCNC
+    /// `interp_read.cc`, `Interp::read_o`: the `O_` type); a no-op where
+    /// the program runs into it.
+    Program,
 }
 
 impl Keyword {
@@ -120,6 +125,7 @@ impl Keyword {
             Keyword::EndRepeat => "endrepeat",
             Keyword::Break => "break",
             Keyword::Continue => "continue",
+            Keyword::Program => "(program number)",
         }
     }
 }
@@ -160,6 +166,9 @@ pub enum Stmt {
     },
     /// A `%` line.
     Percent,
+    /// A line with no effect, skipped with this warning (a Grbl query:
+    /// [`crate::grbl_system`]).
+    Skipped(String),
 }
 
 /// A parsed source line.
@@ -206,6 +215,17 @@ fn clean(src: &str, line: u32) -> Result<(String, Option<String>)> {
 /// Parse one source line (without its newline).
 pub fn line(src: &str, number: u32) -> Result<Line> {
     let (text, abort) = clean(src, number)?;
+    match super::grbl_system::classify(&text) {
+        Some(super::grbl_system::SystemLine::Refuse(m)) => bail!("line {number}: {m}"),
+        Some(super::grbl_system::SystemLine::Skip(m)) => {
+            return Ok(Line {
+                number,
+                block_delete: false,
+                stmt: Stmt::Skipped(m),
+            })
+        }
+        None => {}
+    }
     let mut c = Cursor {
         s: text.as_bytes(),
         i: 0,
@@ -340,6 +360,13 @@ impl Cursor<'_> {
             self.i += 1;
         }
         let word = std::str::from_utf8(&self.s[start..self.i]).unwrap_or("");
+        if word.is_empty() && self.i == self.s.len() && matches!(label, Label::Number(_)) {
+            return Ok(Stmt::OWord {
+                label,
+                keyword: Keyword::Program,
+                args: Vec::new(),
+            });
+        }
         let keyword = Keyword::from_word(word).ok_or_else(|| {
             anyhow!(
                 "line {}: {label} {word:?} is not an O-word keyword (sub, endsub, call, return, if, elseif, else, endif, while, endwhile, do, repeat, endrepeat, break, continue)",

@@ -211,6 +211,7 @@ impl EndOfProgram {
     /// Follow `line`; `true` when it is a `%` that always ends the program.
     fn see(&mut self, line: &Line) -> bool {
         match &line.stmt {
+            Stmt::Skipped(_) => self.content = true,
             Stmt::Percent => {
                 if self.percent || self.content {
                     return true;
@@ -398,7 +399,7 @@ fn structure(lines: &[Line]) -> Result<Structure> {
                 };
                 jumps.insert(i, Jump::InLoop { start: s });
             }
-            Keyword::Call => {}
+            Keyword::Call | Keyword::Program => {}
         }
     }
     if let Some((label, k, i)) = open.last() {

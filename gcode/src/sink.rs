@@ -7,8 +7,11 @@ use anyhow::{bail, Result};
 
 use crate::text::short;
 
-use super::arc::{self, Centre, Plane};
+use super::arc::{self, Centre, Plane, RadiusTolerance};
 use crate::toolpath::{MachineEvent, SpindleDir};
+
+/// Most warnings a [`Sink`] keeps.
+pub const MAX_WARNINGS: usize = 10_000;
 
 /// One piece of the interpreter's output, in program order.
 #[derive(Clone, Debug, PartialEq)]
@@ -30,6 +33,14 @@ pub enum Item {
         /// What.
         event: MachineEvent,
     },
+    /// Something read other than as written (an unknown tool taken as
+    /// length 0, a Grbl query skipped …).
+    Warning {
+        /// Source line.
+        line: u32,
+        /// What.
+        text: String,
+    },
 }
 
 /// The points of a program so far (those not yet handed out).
@@ -46,10 +57,17 @@ pub struct Sink {
     pub tolerance_mm: f64,
     /// Spindle and coolant commands: after which point, source line, what.
     pub events: Vec<(usize, u32, MachineEvent)>,
+    /// How far an arc's end may be off its circle (follows G20/G21).
+    pub arc_tolerance: RadiusTolerance,
+    /// What was read other than as written (a tool taken as length 0, a
+    /// Grbl query skipped): source line, text.
+    pub warnings: Vec<(u32, String)>,
     spindle: SpindleDir,
     rpm: f64,
     flood: bool,
     mist: bool,
+    /// Warnings made so far, handed out or not.
+    warned: usize,
     /// Points handed out and dropped before `points[0]`.
     base: usize,
     /// Points of `points` already handed out.
@@ -66,6 +84,9 @@ impl Sink {
             max_points,
             tolerance_mm,
             events: Vec::new(),
+            arc_tolerance: RadiusTolerance::MM,
+            warnings: Vec::new(),
+            warned: 0,
             spindle: SpindleDir::Off,
             rpm: 0.0,
             flood: false,
@@ -118,6 +139,9 @@ impl Sink {
     /// Hand out the points and events made since the last call, in order,
     /// keeping only the last point (where the next move starts).
     pub fn drain(&mut self, out: &mut impl FnMut(Item)) {
+        for (line, text) in std::mem::take(&mut self.warnings) {
+            out(Item::Warning { line, text });
+        }
         let mut events = std::mem::take(&mut self.events).into_iter().peekable();
         for k in self.sent..self.points.len() {
             while let Some((_, line, event)) = events.next_if(|e| e.0 < self.base + k) {
@@ -138,6 +162,21 @@ impl Sink {
         self.lines.drain(..keep_from);
         self.base += keep_from;
         self.sent = self.points.len();
+    }
+
+    /// A warning about line `line`; after [`MAX_WARNINGS`] of them, one
+    /// saying that the rest were dropped (a loop may repeat a warning
+    /// without end).
+    pub fn warn(&mut self, line: u32, text: impl Into<String>) {
+        self.warned += 1;
+        match self.warned - 1 {
+            n if n < MAX_WARNINGS => self.warnings.push((line, text.into())),
+            MAX_WARNINGS => self.warnings.push((
+                line,
+                format!("more than {MAX_WARNINGS} warnings: the rest are not kept"),
+            )),
+            _ => {}
+        }
     }
 
     fn event(&mut self, line: u32, e: MachineEvent) {
@@ -245,11 +284,27 @@ impl Sink {
             extra_turns,
             self.tolerance_mm,
             self.room(),
+            self.arc_tolerance,
         )
         .map_err(|e| anyhow::anyhow!("line {line}: {e}"))?;
         for p in pts {
             self.push(p, cap, line)?;
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn warnings_are_bounded() {
+        let mut s = Sink::new([0.0; 3], 10, 0.001);
+        for i in 0..(MAX_WARNINGS as u32 + 50) {
+            s.warn(i, "w");
+        }
+        assert_eq!(s.warnings.len(), MAX_WARNINGS + 1);
+        assert!(s.warnings[MAX_WARNINGS].1.contains("not kept"));
     }
 }

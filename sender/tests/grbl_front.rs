@@ -141,7 +141,9 @@ fn real_time_bytes_act_mid_line_and_leave_the_line_whole() {
     let mut r = rig(10.0);
     r.until(Duration::from_secs(1), |o| o.contains("Grbl"));
     r.send(b"G1 X3?0 F3000\n");
-    let got = r.until(Duration::from_secs(5), |o| o.contains('>') && o.contains("ok"));
+    let got = r.until(Duration::from_secs(5), |o| {
+        o.contains('>') && o.contains("ok")
+    });
     assert!(got.contains("<Idle") || got.contains("<Run"), "{got}");
     let s = r.idle(Duration::from_secs(10));
     assert!(s.contains("MPos:30.000"), "{s}");

@@ -24,7 +24,8 @@ pub fn run(args: &Args) -> Result<()> {
         None => SimConfig::default(),
     };
     let input = &args.input;
-    let t = crate::inputs::load(input, &c.gcode)?;
+    let (t, warnings) = crate::inputs::load_with_warnings(input, &c.gcode)?;
+    print_warnings(input, &warnings);
     let mut out = String::new();
     out.push_str(&format!(
         "# {} from {}, {} points, {:.3} mm; 4th column: programmed feed, mm/min\nx,y,z,feed\n",
@@ -40,4 +41,24 @@ pub fn run(args: &Args) -> Result<()> {
     }
     print!("{out}");
     Ok(())
+}
+
+/// Each distinct warning once, at its first line, with how many times it
+/// came (to stderr: stdout is the point list).
+fn print_warnings(input: &std::path::Path, warnings: &[(u32, String)]) {
+    let mut seen: Vec<(u32, &str, usize)> = Vec::new();
+    for (line, text) in warnings {
+        match seen.iter_mut().find(|s| s.1 == text) {
+            Some(s) => s.2 += 1,
+            None => seen.push((*line, text, 1)),
+        }
+    }
+    for (line, text, n) in seen {
+        let more = if n > 1 {
+            format!(" ({n} times)")
+        } else {
+            String::new()
+        };
+        eprintln!("warning: {}: line {line}: {text}{more}", input.display());
+    }
 }

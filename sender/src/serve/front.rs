@@ -104,6 +104,8 @@ struct LinkMachine<'a> {
     f_min_bits: i64,
     /// `$C`: everything is checked, nothing is sent.
     check: bool,
+    /// The interpreter's warnings, for `[MSG:…]` lines.
+    warnings: Vec<String>,
 }
 
 fn grid(p: [f64; 3]) -> Option<[i64; 3]> {
@@ -150,8 +152,9 @@ impl Machine for LinkMachine<'_> {
                 self.path.here = bits;
             }
             Item::Event { line, event } => {
-                let cmd = machine_cmd(&event)
-                    .ok_or_else(|| anyhow!("line {line}: {event:?}: beyond what the controller takes"))?;
+                let cmd = machine_cmd(&event).ok_or_else(|| {
+                    anyhow!("line {line}: {event:?}: beyond what the controller takes")
+                })?;
                 if self.check {
                     return Ok(());
                 }
@@ -159,6 +162,7 @@ impl Machine for LinkMachine<'_> {
                 self.path.last_seq = Some(self.client.machine(cmd));
                 self.path.restart = true;
             }
+            Item::Warning { text, .. } => self.warnings.push(text),
         }
         Ok(())
     }
@@ -223,8 +227,9 @@ impl Front {
         let here = status.pos_mm.map(crate::view::bits_f64);
         interp.set_position_mm(here);
         let f_max_bits = FeedMmPerMin::from_f64(feed_max_mm_per_min).0.to_bits();
-        let f_min_bits =
-            FeedMmPerMin::from_f64(controller::settings::F_MIN_MM_PER_MIN as f64).0.to_bits();
+        let f_min_bits = FeedMmPerMin::from_f64(controller::settings::F_MIN_MM_PER_MIN as f64)
+            .0
+            .to_bits();
         let now = Instant::now();
         let alarm = machine.alarm;
         Ok(Front {
@@ -369,7 +374,8 @@ impl Front {
             }
             DeviceMsg::Homed { pos_mm, .. } => {
                 self.homing = false;
-                self.interp.set_position_mm(pos_mm.map(crate::view::bits_f64));
+                self.interp
+                    .set_position_mm(pos_mm.map(crate::view::bits_f64));
                 self.path.here = pos_mm.map(link::batch::to_grid);
             }
             _ => {}
@@ -630,7 +636,10 @@ impl Front {
             && self.lines.is_empty()
             && self.answers.iter().all(|a| a.when != Release::AtRest)
             && self.last_input.elapsed() >= QUIET_END_PATH
-            && self.answers.iter().all(|a| matches!(a.when, Release::Sent(_) | Release::Now))
+            && self
+                .answers
+                .iter()
+                .all(|a| matches!(a.when, Release::Sent(_) | Release::Now))
         {
             self.end_path();
         }
@@ -781,10 +790,15 @@ impl Front {
             f_max_bits: self.f_max_bits,
             f_min_bits: self.f_min_bits,
             check: self.check,
+            warnings: Vec::new(),
         };
         let before = m.path.last_seq;
         let r = self.interp.run_with(&mut m);
+        let warnings = std::mem::take(&mut m.warnings);
         let after = self.path.last_seq;
+        for w in warnings {
+            self.answer(report::message(&w), Release::Now);
+        }
         if let Err(e) = r {
             self.refuse_gcode(&e);
             return Ok(());
@@ -851,7 +865,10 @@ impl Front {
             return Ok(());
         };
         if feed <= 0.0 || !feed.is_finite() {
-            self.answer(report::error(ErrorCode::GcodeUndefinedFeedRate), Release::Now);
+            self.answer(
+                report::error(ErrorCode::GcodeUndefinedFeedRate),
+                Release::Now,
+            );
             return Ok(());
         }
         if from == to {
@@ -1022,8 +1039,20 @@ fn is_sync(words: &[String]) -> bool {
     words.iter().any(|w| {
         matches!(
             w.as_str(),
-            "G4" | "G10" | "G28.1" | "G30.1" | "G92" | "G92.1" | "G38.2" | "G38.3" | "G38.4"
-                | "G38.5" | "M0" | "M1" | "M2" | "M30" | "M6"
+            "G4" | "G10"
+                | "G28.1"
+                | "G30.1"
+                | "G92"
+                | "G92.1"
+                | "G38.2"
+                | "G38.3"
+                | "G38.4"
+                | "G38.5"
+                | "M0"
+                | "M1"
+                | "M2"
+                | "M30"
+                | "M6"
         )
     })
 }

@@ -64,9 +64,8 @@ pub fn serve(
         });
     }
     if let Some(tcp) = serve.tcp_port {
-        let t = port::Tcp::bind(tcp).map_err(|e| {
-            Failure::new(Exit::Error, format!("listening on 127.0.0.1:{tcp}: {e}"))
-        })?;
+        let t = port::Tcp::bind(tcp)
+            .map_err(|e| Failure::new(Exit::Error, format!("listening on 127.0.0.1:{tcp}: {e}")))?;
         ports.push(Served {
             port: Box::new(t),
             connected: false,
@@ -124,9 +123,9 @@ pub fn serve(
         let out = front.take_output();
         if !out.is_empty() {
             for p in ports.iter_mut().filter(|p| p.connected) {
-                p.port
-                    .send(out.as_bytes())
-                    .map_err(|e| Failure::new(Exit::Error, format!("{}: {e}", p.port.describe())))?;
+                p.port.send(out.as_bytes()).map_err(|e| {
+                    Failure::new(Exit::Error, format!("{}: {e}", p.port.describe()))
+                })?;
             }
         }
         if !ports.iter().any(|p| p.connected) {

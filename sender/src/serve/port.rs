@@ -72,7 +72,9 @@ impl Pty {
         )?;
         let link = match link {
             Some(l) => {
-                if l.symlink_metadata().is_ok_and(|m| m.file_type().is_symlink()) {
+                if l.symlink_metadata()
+                    .is_ok_and(|m| m.file_type().is_symlink())
+                {
                     std::fs::remove_file(l)?;
                 }
                 std::os::unix::fs::symlink(&path, l)?;
@@ -264,7 +266,8 @@ mod tests {
             .unwrap();
         assert_eq!(p.read_now(&mut buf).unwrap(), Got::Nothing);
         // 8-bit clean both ways: real-time bytes and CR LF pass unchanged.
-        s.write_all(&[b'?', 0x85, 0x18, b'\r', b'\n', 0x9A]).unwrap();
+        s.write_all(&[b'?', 0x85, 0x18, b'\r', b'\n', 0x9A])
+            .unwrap();
         std::thread::sleep(std::time::Duration::from_millis(20));
         assert_eq!(p.read_now(&mut buf).unwrap(), Got::Data(6));
         assert_eq!(&buf[..6], &[b'?', 0x85, 0x18, b'\r', b'\n', 0x9A]);
