@@ -367,11 +367,7 @@ impl Front {
                     self.alarm = None;
                 }
             }
-            DeviceMsg::Alarm { code, .. } => {
-                if self.alarm != Some(code) {
-                    self.on_alarm(code);
-                }
-            }
+            DeviceMsg::Alarm { code, .. } if self.alarm != Some(code) => self.on_alarm(code),
             DeviceMsg::Homed { pos_mm, .. } => {
                 self.homing = false;
                 self.interp
@@ -994,10 +990,10 @@ impl Front {
 fn motion_mode(code: Option<f64>) -> report::MotionMode {
     use report::MotionMode as M;
     match code {
-        Some(c) if c == 0.0 => M::Rapid,
-        Some(c) if c == 1.0 => M::Linear,
-        Some(c) if c == 2.0 => M::ArcCw,
-        Some(c) if c == 3.0 => M::ArcCcw,
+        Some(0.0) => M::Rapid,
+        Some(1.0) => M::Linear,
+        Some(2.0) => M::ArcCw,
+        Some(3.0) => M::ArcCcw,
         Some(c) if (38.15..38.55).contains(&c) => M::Probe(((c - 38.0) * 10.0).round() as u8),
         _ => M::Cancel,
     }
