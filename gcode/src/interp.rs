@@ -2294,7 +2294,11 @@ impl Interp {
             bail!("line {line}: mixed radius-ijk format for arc (R with I, J or K)");
         }
         let (_, _, normal) = self.plane.axes();
-        if ijk[normal] {
+        // A zero offset along the normal is taken: posts write it (FreeCAD's
+        // `G2 … I J K0.000` in G17), Grbl ignores it (`gc_execute_line`
+        // clears I J K whatever the plane); rs274ngc refuses any.
+        let along_normal = b.get(['I', 'J', 'K'][normal]).is_some_and(|v| v != 0.0);
+        if along_normal {
             let (word, plane) = match self.plane {
                 Plane::Xy => ('K', "xy (G17)"),
                 Plane::Zx => ('J', "xz (G18)"),
@@ -2634,6 +2638,12 @@ mod tests {
         );
         let e = err("G1 X1 F100\nG2 X2 Y1 I1 K1\n");
         assert!(e.contains("line 2: K word given for arc in xy"), "{e}");
+        assert!(parse(
+            "t",
+            "G1 X1 F100\nG2 X2 Y1 I0 J1 K0.000\n",
+            &GcodeSettings::default()
+        )
+        .is_ok());
         let e = err("G1 X1 F100\nG19 G2 Y2 Z1 I1 K1\n");
         assert!(e.contains("line 2: I word given for arc in yz"), "{e}");
         // The offsets of the plane are fine.
