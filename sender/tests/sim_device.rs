@@ -889,3 +889,25 @@ fn a_host_gone_mid_path_leaves_little_motion_to_run() {
         assert!(stop_s < 1.3, "{name}: {stop_s}");
     }
 }
+
+/// The simulated controller a thousand times faster than real time: the
+/// host's status every 200 ms is 200 s of its time, and the motion queued
+/// ahead (1 s of its time) runs out between two polls again and again.
+/// The link's silence counts in the host's time, so no link-loss alarm
+/// comes of it, and the program runs to its end.
+#[test]
+fn a_simulation_far_faster_than_the_host_raises_no_false_link_loss() {
+    let h = sim::start(1000.0).unwrap();
+    let p = load("trident");
+    let mut s = session(&h, Recorder::none());
+    let mut o = opts();
+    o.status_period = Duration::from_millis(200);
+    let hs = s.handshake(&o).unwrap();
+    let out = s.run(&p, &hs, &o, &mut NoActions, &mut Quiet);
+    assert_done(&out, &p);
+    assert!(
+        out.summary.underruns > 0,
+        "the host fell behind: {:?}",
+        out.summary
+    );
+}
