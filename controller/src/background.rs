@@ -37,9 +37,11 @@
 //!    (the ring executed), then takes effect (`DeviceMsg::Applied`), and a
 //!    spin-up delay or a dwell (`MachineCmd::Dwell`, G4) holds the next
 //!    path back ([`crate::spindle`]);
-//! 5. link loss: with the path open and the tool stopped for want of it
-//!    (the planner's controlled stop on underrun), a link silent for the
-//!    timeout (`$206`) trips [`AlarmCode::LinkLoss`];
+//! 5. link silence and loss: a link silent for `$209` while the tool
+//!    moves is a feed hold (the host is gone: what it queued must not run
+//!    on without it); with the path open and the tool at rest (stopped for
+//!    want of points, or held), a link silent for `$206` trips
+//!    [`AlarmCode::LinkLoss`];
 //! 6. credit back to the host ([`DeviceLink::poll`]); the machine's
 //!    reports (alarm, homed, applied, stored) when the reserve is free;
 //! 7. the figures status replies report, when they changed.
@@ -87,6 +89,8 @@ pub enum Notice {
     Aborted,
     /// The alarm state was entered.
     Alarm(AlarmCode),
+    /// The link fell silent while the tool moved: a feed hold.
+    LinkSilent,
     /// The planner refused settings the link accepted (cannot happen: the
     /// link checks them as a whole).
     SettingsRefused(ConfigError),
@@ -155,6 +159,19 @@ struct Waiting {
 /// The machine's reports waiting for transmit room.
 const OUTBOX: usize = 4;
 
+/// How long the link has been silent at `now_us`, the last frame having
+/// arrived at `last_rx_us` (µs, wrapping clocks). A frame can arrive
+/// after `now_us` was read (the receive interrupt preempts the pass that
+/// read it): that is no silence at all, not a wrapped one.
+fn silence_us(now_us: u32, last_rx_us: u32) -> u32 {
+    let d = now_us.wrapping_sub(last_rx_us);
+    if (d as i32) < 0 {
+        0
+    } else {
+        d
+    }
+}
+
 /// Whether tick `now` is at or after `at` (wrapping).
 fn reached(now: u32, at: u32) -> bool {
     (now.wrapping_sub(at) as i32) >= 0
@@ -184,6 +201,12 @@ pub struct Background<'a> {
     outbox: Deque<DeviceMsg, OUTBOX>,
     /// Step settings changed, for the tick.
     step_settings: Option<StepSettings>,
+    /// The link fell silent while the tool moved: the feed hold it caused
+    /// holds until the host is heard again.
+    silence_hold: bool,
+    /// The generated tick from which the tool has been at rest on an open
+    /// path (stopped for want of points, or held).
+    rest_since: Option<u32>,
 }
 
 impl<'a> Background<'a> {
@@ -215,6 +238,8 @@ impl<'a> Background<'a> {
             homed: 0,
             outbox: Deque::new(),
             step_settings: None,
+            silence_hold: false,
+            rest_since: None,
         })
     }
 
@@ -300,17 +325,9 @@ impl<'a> Background<'a> {
             busy |= self.homing_pass(link, setpoints, room, &mut notice);
         } else {
             busy |= self.motion(link, cmds, setpoints, io, room, &mut notice);
-            // 5. Link loss.
-            let timeout_ms = self.config.get(Key::LinkLoss) as u32;
-            if timeout_ms > 0
-                && self.planning.state() == MotionState::Starved
-                && self.planning.motion().at_rest()
-            {
-                let silent = link.lock(|l| now_us.wrapping_sub(l.last_rx_us));
-                if silent / 1000 >= timeout_ms {
-                    self.latch.trip(AlarmCode::LinkLoss);
-                }
-            }
+            // 5. Link silence and loss.
+            let silent_ms = link.lock(|l| silence_us(now_us, l.last_rx_us)) / 1000;
+            busy |= self.link_silence(link, silent_ms, room, &mut notice);
             // A homing cycle to start.
             if let Some(axes) = link.lock(|l| l.take_home()) {
                 if self.idle() {
@@ -348,6 +365,54 @@ impl<'a> Background<'a> {
         if info != self.published {
             self.published = info;
             link.lock(|l| l.info = info);
+        }
+        busy
+    }
+
+    /// Step 5: a link silent for `$209` while the tool moves is a feed
+    /// hold (a host that streams a path asks for its status several times
+    /// a second: a silent one is gone, and what it queued must not run on
+    /// without it); a host heard again decides with its own hold and
+    /// resume. On an open path at rest (stopped for want of points, or
+    /// held), a link silent for `$206` trips [`AlarmCode::LinkLoss`], once
+    /// the ring holds only the resting position.
+    fn link_silence<L: Mutex<T = DeviceLink>>(
+        &mut self,
+        link: &mut L,
+        silent_ms: u32,
+        room: bool,
+        notice: &mut impl FnMut(Notice),
+    ) -> bool {
+        let mut busy = false;
+        let hold_ms = u32::try_from(self.config.get(Key::LinkSilence)).unwrap_or(u32::MAX);
+        let state = self.planning.state();
+        if self.silence_hold && silent_ms < hold_ms {
+            self.silence_hold = false;
+        }
+        if hold_ms > 0 && room && state == MotionState::Moving && silent_ms >= hold_ms {
+            let c = Controls {
+                hold: Some(true),
+                ..Controls::default()
+            };
+            for input in self.planning.apply(c).into_iter().flatten() {
+                report(link, input, notice);
+            }
+            self.silence_hold = true;
+            notice(Notice::LinkSilent);
+            busy = true;
+        }
+        let generated = self.planning.generated();
+        let stopped = matches!(state, MotionState::Starved | MotionState::Holding)
+            && self.planning.motion().at_rest();
+        if !stopped {
+            self.rest_since = None;
+            return busy;
+        }
+        let since = *self.rest_since.get_or_insert(generated);
+        let ring_at_rest = generated.wrapping_sub(since) >= SETPOINT_RING as u32;
+        let loss_ms = u32::try_from(self.config.get(Key::LinkLoss)).unwrap_or(u32::MAX);
+        if loss_ms > 0 && ring_at_rest && silent_ms >= loss_ms {
+            self.latch.trip(AlarmCode::LinkLoss);
         }
         busy
     }
@@ -797,5 +862,18 @@ fn report<L: Mutex<T = DeviceLink>>(
 ) {
     if !link.lock(|l| !l.reports || l.tx.send(&input.to_msg(), 0)) {
         notice(Notice::ReportDropped);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_frame_after_the_pass_read_the_clock_is_no_silence() {
+        assert_eq!(silence_us(5_000, 1_000), 4_000);
+        assert_eq!(silence_us(1_000, 1_200), 0, "arrived after `now`");
+        assert_eq!(silence_us(100, u32::MAX - 899), 1_000, "across the wrap");
+        assert_eq!(silence_us(u32::MAX, u32::MAX), 0);
     }
 }

@@ -122,10 +122,11 @@ pub enum Key {
     LinkLoss,
     SpinUp,
     Smoothing,
+    LinkSilence,
 }
 
 /// How many settings there are.
-pub const COUNT: usize = 41;
+pub const COUNT: usize = 42;
 
 const fn s(
     id: u16,
@@ -378,6 +379,14 @@ pub const SETTINGS: [SettingInfo; COUNT] = [
         (1, 8),
         Apply::AtRest,
     ),
+    s(
+        209,
+        "link silence while moving before a feed hold (0: off; a host streaming a path asks for a status several times a second)",
+        "ms",
+        0,
+        (0, 600_000),
+        Apply::Now,
+    ),
 ];
 
 /// The defaults, in [`Key`] order (the planner's from the build-time
@@ -424,6 +433,7 @@ const DEFAULTS: [i64; COUNT] = [
     5000, // link-loss timeout 5 s
     1000, // spin-up 1 s
     SMOOTHING_TICKS as i64,
+    1000, // a feed hold after 1 s of link silence while moving
 ];
 
 /// The polarity mask of the build-time step settings (`dir`: the

@@ -265,6 +265,15 @@ impl VirtualDevice {
         }
     }
 
+    /// How long the host has been silent, in the host's own time (µs),
+    /// where it runs apart from the device's (a simulation faster than
+    /// real time: a host asking for a status every 200 ms of its time
+    /// would seem silent for seconds of the device's). The link silence
+    /// checks (`$206`, `$209`) then count the host's time.
+    pub fn set_host_silence_us(&mut self, silent_us: u32) {
+        self.link.last_rx_us = self.now_us().wrapping_sub(silent_us);
+    }
+
     /// The device's clock: tick periods so far × the tick period, µs
     /// (wrapping).
     pub fn now_us(&self) -> u32 {

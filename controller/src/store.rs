@@ -40,7 +40,7 @@ use crate::config::{Config, COUNT};
 pub const MAGIC: u32 = 0x5345_5454;
 /// The record's format version (a new layout of [`crate::config`] takes a
 /// new one).
-pub const VERSION: u16 = 1;
+pub const VERSION: u16 = 2;
 /// Words of a record: magic, version, sequence, the values, CRC.
 pub const RECORD_WORDS: usize = 3 + 2 * COUNT + 1;
 /// Bytes of the smallest sector the log lives in (the STM32F4's 16 KiB

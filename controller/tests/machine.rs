@@ -418,6 +418,59 @@ fn a_silent_link_with_a_starved_path_raises_an_alarm_after_the_stop() {
     assert_eq!(b.alarms()[0], (AlarmCode::LinkLoss, stop.pos_mm));
 }
 
+/// A link that falls silent while the tool moves (the host gone, its path
+/// queued): a feed hold after `$209`, the tool at rest on the path well
+/// short of its end, then the link-loss alarm after `$206` where it
+/// rests. Polled, the same path runs to its end.
+#[test]
+fn a_link_silent_while_moving_holds_the_motion_then_raises_the_alarm() {
+    let end = [mm(80.0), 0, 0];
+    let pts = line_x(0.0, 80.0, 1.0);
+    let mut b = Bench::new();
+    b.path(&pts);
+    b.run_until(60_000, |s| s.motion == Motion::Idle && s.pos_mm == end);
+    assert!(b.alarms().is_empty(), "polled: no hold, no alarm");
+
+    let mut b = Bench::new();
+    b.set(206, 300);
+    b.path(&pts);
+    b.run_until(5_000, |s| s.motion == Motion::Running && feed(s) > 2000.0);
+    // Silent from here: everything was sent within the credit.
+    b.run(1005);
+    let held = b.status();
+    b.run(300);
+    assert!(b.alarms().is_empty(), "{:?}", b.alarms());
+    let rest = b.status();
+    assert_eq!(rest.motion, Motion::Held, "{rest:?}");
+    assert_eq!(feed(&rest), 0.0);
+    let x = rest.pos_mm[0] as f64 / MM;
+    assert!(x < 70.0, "stopped well short of the end: X{x}");
+    assert!(feed(&held) > 0.0, "it was still moving: {held:?}");
+    // Silent on at rest: the alarm, where the tool rests.
+    b.run(250);
+    assert!(b.alarms().is_empty(), "{:?}", b.alarms());
+    b.run(100);
+    let alarms = b.alarms();
+    assert_eq!(alarms.len(), 1, "{alarms:?}");
+    let (code, at) = alarms[0];
+    assert_eq!(code, AlarmCode::LinkLoss);
+    // Where the step output stopped: the rest position to the step.
+    let off_mm = (at[0] - rest.pos_mm[0]).abs() as f64 / MM;
+    assert!(off_mm <= 0.01 + 1e-9, "{at:?} {rest:?}");
+    assert_eq!(b.status().motion, Motion::Alarm);
+
+    // A host heard again before the alarm resumes the path as from any
+    // hold.
+    let mut b = Bench::new();
+    b.path(&pts);
+    b.run_until(5_000, |s| s.motion == Motion::Running && feed(s) > 2000.0);
+    b.run(1100);
+    assert_eq!(b.status().motion, Motion::Held);
+    b.send(&HostMsg::Resume);
+    b.run_until(60_000, |s| s.motion == Motion::Idle && s.pos_mm == end);
+    assert!(b.alarms().is_empty());
+}
+
 /// The homing cycle against switches on the simulated axes (X max at 3
 /// mm, Y max at 5 mm, Z max at 2 mm of the step output's coordinates,
 /// 100 steps/mm): motion is refused before it when homing is required;

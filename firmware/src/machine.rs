@@ -76,6 +76,7 @@ pub fn log(n: Notice) {
     match n {
         Notice::PathScheduled => defmt::info!("path scheduled"),
         Notice::Alarm(code) => defmt::warn!("alarm: {}", code),
+        Notice::LinkSilent => defmt::warn!("link silent while moving: feed hold"),
         other => defmt::error!("{}", other),
     }
 }

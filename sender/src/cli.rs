@@ -873,6 +873,11 @@ fn run_program(
     opts.initial_override = a.override_percent;
     opts.restore_override = a.jog;
     opts.reports = a.verify;
+    // The simulated controller's time runs `speed` times the host's: the
+    // motion ahead must last as long in the host's time.
+    if let Target::Sim { speed } = target {
+        opts.ahead = Some(stream::AHEAD.mul_f64(speed.max(1.0)));
+    }
     let hs = session.handshake(&opts)?;
     // From here on Ctrl-C is a controlled stop (before, it ends the
     // sender at once: nothing was sent).

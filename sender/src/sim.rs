@@ -30,6 +30,10 @@ pub struct SimReport {
     pub last_position: Option<Point3Mm>,
     /// Positions sent to the axes.
     pub positions: usize,
+    /// The tick at which the last bytes from a host arrived.
+    pub last_heard_tick: u64,
+    /// The tick at which the axes last moved.
+    pub last_move_tick: u64,
 }
 
 /// The simulated controller's thread.
@@ -198,6 +202,11 @@ fn run(
     // board's transmitter runs on regardless).
     let mut io_: Option<UnixStream> = None;
     let hz = TICK_HZ as f64 * speed;
+    // The host's silence in real time, not the device's: a host that asks
+    // for a status every 200 ms stays alive at any speed.
+    let mut heard = Instant::now();
+    let (mut last_heard_tick, mut last_move_tick) = (0, 0);
+    let mut last_pos = None;
     while !stop.load(Ordering::Relaxed) {
         if let Some(s) = streams.try_iter().last() {
             io_ = Some(s);
@@ -217,7 +226,11 @@ fn run(
                             closed = true;
                             break;
                         }
-                        Ok(n) => dev.receive(&buf[..n]),
+                        Ok(n) => {
+                            heard = Instant::now();
+                            last_heard_tick = ticks;
+                            dev.receive(&buf[..n]);
+                        }
                         Err(e) if e.kind() == io::ErrorKind::WouldBlock => break,
                         Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
                         Err(_) => {
@@ -227,8 +240,15 @@ fn run(
                     }
                 }
             }
+            let silent_us = heard.elapsed().as_micros().min(u32::MAX as u128 / 2) as u32;
+            dev.set_host_silence_us(silent_us);
             dev.run_tick();
             ticks += 1;
+            let pos = dev.axes.positions.last().copied();
+            if pos != last_pos {
+                last_pos = pos;
+                last_move_tick = ticks;
+            }
             let out = dev.transmit();
             if let Some(s) = io_.as_mut() {
                 if !closed && !out.is_empty() && !write_all(s, &out, stop) {
@@ -244,5 +264,7 @@ fn run(
         ticks,
         last_position: dev.axes.positions.last().copied(),
         positions: dev.axes.positions.len(),
+        last_heard_tick,
+        last_move_tick,
     }
 }

@@ -51,6 +51,12 @@ pub struct Options {
     /// scheduled feeds, checked against the host's schedule bit for bit,
     /// and the events; about 23 bytes a point back over the link).
     pub reports: bool,
+    /// The most motion to have queued ahead of the tool, in the
+    /// controller's time (the program's time at the host-scheduled feeds
+    /// and the override in force): what runs on if the host goes away.
+    /// Enough for the status polls to see the tool's progress and the
+    /// points to follow it; `None`: as much as the credit takes.
+    pub ahead: Option<Duration>,
 }
 
 impl Options {
@@ -66,9 +72,15 @@ impl Options {
             initial_override: None,
             restore_override: false,
             reports: false,
+            ahead: Some(AHEAD),
         }
     }
 }
+
+/// The default motion queued ahead of the tool ([`Options::ahead`]): five
+/// status periods, and the planner's braking distance at the machine's
+/// feeds many times over.
+pub const AHEAD: Duration = Duration::from_secs(1);
 
 /// Where the run shows itself (a progress bar, a log, nothing).
 pub trait Display {
@@ -306,6 +318,26 @@ pub struct Outcome {
     pub message: String,
     /// What it did.
     pub summary: Summary,
+}
+
+/// Points the controller's scheduler holds back for its lookahead before
+/// it releases one (its latency, and one more: counted short, the motion
+/// queued ahead would be overestimated and streaming could wait for a
+/// tool that waits for it).
+const SCHEDULER_DELAY_POINTS: usize = controller::settings::Sched::LATENCY + 1;
+
+/// What of the program is queued to the link client.
+#[derive(Clone, Copy, Debug, Default)]
+struct Queued {
+    /// The next item to queue.
+    next: usize,
+    /// Points queued since the last machine command.
+    path_points: usize,
+    /// The last item whose point the controller can reach with what is
+    /// queued.
+    released: Option<usize>,
+    /// The path's end is queued.
+    ended: bool,
 }
 
 /// Largest number of messages handled before looking at actions again.
@@ -696,6 +728,10 @@ struct Run<'a> {
     /// The last machine command applied, while the path after it has not
     /// begun (the controller at rest, waiting for it).
     waiting_on: Option<MachineCmd>,
+    /// Program time to each point (s at 100 %: `Program::cum_time_s`).
+    cum_s: Vec<f64>,
+    /// What is queued so far.
+    ahead: Queued,
 }
 
 impl<'a> Run<'a> {
@@ -703,7 +739,8 @@ impl<'a> Run<'a> {
         let feed_max = hs.feed_max_mm_per_min();
         let host = program.host_schedule(opts.config);
         let feeds = program.feeds_by_point(&host);
-        let eta = Eta::new(program.cum_time_s(&feeds, feed_max));
+        let cum_s = program.cum_time_s(&feeds, feed_max);
+        let eta = Eta::new(cum_s.clone());
         let items = program.items();
         // The point count each machine command should find its path at:
         // the points since the previous one (none: the same path).
@@ -750,6 +787,8 @@ impl<'a> Run<'a> {
             last_status: hs.status,
             progress: 0,
             waiting_on: None,
+            cum_s,
+            ahead: Queued::default(),
         }
     }
 
@@ -891,6 +930,95 @@ impl<'a> Run<'a> {
         }
     }
 
+    /// The program's time (s at 100 %, host-scheduled feeds, dwells) to
+    /// the point of item `k` (a machine command: to its point).
+    fn item_time_s(&self, k: usize) -> f64 {
+        let index = match self.items.get(k) {
+            Some(Item::Point { index, .. }) => *index,
+            Some(Item::Machine { index }) => self.program.events.get(*index).map_or(0, |e| e.after),
+            None => return 0.0,
+        };
+        self.cum_s.get(index).copied().unwrap_or(0.0)
+    }
+
+    /// Motion the controller could run on its own with what is queued
+    /// (the points its scheduler has released or will release without
+    /// more: all before a machine command or the path's end, else all
+    /// but its lookahead's latency), beyond where it is now: s of the
+    /// program at the override in force.
+    fn queued_ahead_s(&self) -> f64 {
+        let st = self.last_status;
+        let at = match self.reached(&st) {
+            Some(r) if r > 0 => self.cum_s.get(r as usize - 1).copied().unwrap_or(0.0),
+            _ => 0.0,
+        };
+        let frontier = self.ahead.released.map_or(0.0, |k| self.item_time_s(k));
+        let ovr = st.override_percent.max(1) as f64 / 100.0;
+        (frontier - at).max(0.0) / ovr
+    }
+
+    /// Queue the next items (and the path's end) while the motion the
+    /// controller could run without the host stays within
+    /// [`Options::ahead`]: a host that goes away leaves no more than that
+    /// to run (the controller's credit bounds the count besides).
+    fn queue_ahead(&mut self, s: &mut Session) {
+        let limit_s = self.opts.ahead.map_or(f64::INFINITY, |d| d.as_secs_f64());
+        while !self.ahead.ended && self.queued_ahead_s() <= limit_s {
+            let k = self.ahead.next;
+            match self.items.get(k).copied() {
+                Some(item) => {
+                    self.queue_item(s, item);
+                    self.ahead.next += 1;
+                    match item {
+                        Item::Machine { .. } => {
+                            self.ahead.released = Some(k);
+                            self.ahead.path_points = 0;
+                        }
+                        Item::Point { .. } => {
+                            self.ahead.path_points += 1;
+                            if self.ahead.path_points > SCHEDULER_DELAY_POINTS {
+                                self.ahead.released = Some(k - SCHEDULER_DELAY_POINTS);
+                            }
+                        }
+                    }
+                }
+                None => {
+                    self.end_seq = s.conn.client_mut().end_path();
+                    self.ahead.released = self.items.len().checked_sub(1);
+                    self.ahead.ended = true;
+                }
+            }
+        }
+    }
+
+    /// One item to the link client (and the record).
+    fn queue_item(&mut self, s: &mut Session, item: Item) {
+        match item {
+            Item::Point { index, repeat } => {
+                let Some(p) = self.program.points.get(index) else {
+                    return;
+                };
+                let bits = p.pos.to_bits();
+                // A repeat starts a path: no block leads to it.
+                let cap = p.feed_cap.filter(|_| !repeat).map(|f| f.0.to_bits());
+                let seq = s.conn.client_mut().point(bits, cap);
+                s.rec.point(
+                    seq,
+                    bits,
+                    cap,
+                    self.program.lines.get(index).copied().unwrap_or(0),
+                );
+            }
+            Item::Machine { index } => {
+                if let Some(e) = self.program.events.get(index) {
+                    let seq = s.conn.client_mut().machine(e.cmd);
+                    s.rec.machine(seq, &e.cmd, e.line);
+                    self.summary.machine_sent += 1;
+                }
+            }
+        }
+    }
+
     fn go(
         &mut self,
         s: &mut Session,
@@ -936,33 +1064,8 @@ impl<'a> Run<'a> {
         let t = s.t_s();
         s.rec
             .path(t, self.start_seq, f_max, f_min, self.program.len());
-        for it in &self.items {
-            match *it {
-                Item::Point { index, repeat } => {
-                    let Some(p) = self.program.points.get(index) else {
-                        continue;
-                    };
-                    let bits = p.pos.to_bits();
-                    // A repeat starts a path: no block leads to it.
-                    let cap = p.feed_cap.filter(|_| !repeat).map(|f| f.0.to_bits());
-                    let seq = s.conn.client_mut().point(bits, cap);
-                    s.rec.point(
-                        seq,
-                        bits,
-                        cap,
-                        self.program.lines.get(index).copied().unwrap_or(0),
-                    );
-                }
-                Item::Machine { index } => {
-                    if let Some(e) = self.program.events.get(index) {
-                        let seq = s.conn.client_mut().machine(e.cmd);
-                        s.rec.machine(seq, &e.cmd, e.line);
-                        self.summary.machine_sent += 1;
-                    }
-                }
-            }
-        }
-        self.end_seq = s.conn.client_mut().end_path();
+        self.end_seq = self.first_point_seq.wrapping_add(self.items.len() as u32);
+        self.queue_ahead(s);
         self.t_start = Instant::now();
 
         let mut next_status = Instant::now();
@@ -1006,6 +1109,7 @@ impl<'a> Run<'a> {
                 }
             }
             if stopping.is_none() {
+                self.queue_ahead(s);
                 s.conn.transmit().map_err(Failure::from)?;
             }
             // Messages from the controller.

@@ -802,3 +802,117 @@ fn an_override_lasts_across_programs_and_jogs_ignore_it() {
     assert_eq!(s.status_within(T, |_| {}).unwrap().override_percent, 150);
     std::fs::remove_file(&rec).ok();
 }
+
+/// Silences the host's writes after `at` (a killed sender: nothing more
+/// reaches the controller, whose reports still come).
+struct Kill {
+    at: Duration,
+    dead: Arc<AtomicBool>,
+}
+
+impl Actions for Kill {
+    fn poll(&mut self, elapsed: Duration, _: u32) -> Vec<Action> {
+        if elapsed >= self.at {
+            self.dead.store(true, Ordering::Relaxed);
+        }
+        Vec::new()
+    }
+}
+
+/// What runs on after the host goes silent `at` into `spec`, on a
+/// controller in real time with `$209` (the feed hold on silence while
+/// moving) at `silence_ms` and the sender's queue bounded by `ahead`:
+/// the seconds from the last byte the controller heard to the last
+/// motion, and the alarm that ended the run.
+fn run_after_silence(
+    spec: &str,
+    at: Duration,
+    silence_ms: i64,
+    ahead: Option<Duration>,
+) -> (f64, Outcome) {
+    let h = sim::start(1.0).unwrap();
+    let p = load(spec);
+    let raw = h.connect().unwrap();
+    let dead = Arc::new(AtomicBool::new(false));
+    let w = Gate {
+        inner: raw.try_clone().unwrap(),
+        frozen: dead.clone(),
+    };
+    let mut s = Session::new(Box::new(w), Box::new(raw), Recorder::none());
+    s.set_setting(209, silence_ms, T).unwrap();
+    s.set_setting(206, 500, T).unwrap();
+    let mut o = opts();
+    o.reports = false;
+    o.status_period = Duration::from_millis(200);
+    o.link_timeout = Duration::from_secs(30);
+    o.ahead = ahead;
+    let hs = s.handshake(&o).unwrap();
+    let out = s.run(&p, &hs, &o, &mut Kill { at, dead }, &mut Quiet);
+    let r = h.finish();
+    let ran_s = r.last_move_tick.saturating_sub(r.last_heard_tick) as f64
+        / controller::settings::TICK_HZ as f64;
+    (ran_s, out)
+}
+
+/// The host goes silent mid-path (a killed sender): the sender keeps
+/// about `AHEAD` of motion queued, and the controller holds the motion
+/// after `$209` of silence and then raises the link-loss alarm, the tool
+/// at rest on the path. Prints the figures of `sender/README.md`.
+#[test]
+fn a_host_gone_mid_path_leaves_little_motion_to_run() {
+    let ahead = sender::stream::AHEAD;
+    for (spec, at_s) in [
+        (repo("tests/data/short_segments.ngc"), 1.5),
+        (repo("tests/data/gcode/pocket.ngc"), 1.5),
+    ] {
+        let at = Duration::from_secs_f64(at_s);
+        let name = Path::new(&spec)
+            .file_name()
+            .unwrap()
+            .to_string_lossy()
+            .into_owned();
+        let (queued_s, out) = run_after_silence(&spec, at, 0, Some(ahead));
+        assert_eq!(
+            out.summary.alarm.map(|a| a.0),
+            Some(AlarmCode::LinkLoss),
+            "{name}: {}",
+            out.message
+        );
+        let (unbounded_s, _) = run_after_silence(&spec, at, 0, None);
+        let (stop_s, out) = run_after_silence(&spec, at, 1000, Some(ahead));
+        assert_eq!(
+            out.summary.alarm.map(|a| a.0),
+            Some(AlarmCode::LinkLoss),
+            "{name}: {}",
+            out.message
+        );
+        println!(
+            "{name}: silent from {at_s:.1} s: motion queued ahead {queued_s:.2} s (the sender's bound {:.1} s; without it {unbounded_s:.2} s); with the hold after 1 s of silence ($209=1000), the last host byte to rest {stop_s:.2} s",
+            ahead.as_secs_f64()
+        );
+        assert!(queued_s < ahead.as_secs_f64() + 0.5, "{name}: {queued_s}");
+        assert!(stop_s < 1.3, "{name}: {stop_s}");
+    }
+}
+
+/// The simulated controller a thousand times faster than real time: the
+/// host's status every 200 ms is 200 s of its time, and the motion queued
+/// ahead (1 s of its time) runs out between two polls again and again.
+/// The link's silence counts in the host's time, so no link-loss alarm
+/// comes of it, and the program runs to its end.
+#[test]
+fn a_simulation_far_faster_than_the_host_raises_no_false_link_loss() {
+    let h = sim::start(1000.0).unwrap();
+    let p = load("trident");
+    let mut s = session(&h, Recorder::none());
+    let mut o = opts();
+    o.status_period = Duration::from_millis(200);
+    let hs = s.handshake(&o).unwrap();
+    let out = s.run(&p, &hs, &o, &mut NoActions, &mut Quiet);
+    assert_done(&out, &p);
+    assert!(
+        out.summary.underruns > 0,
+        "the host fell behind: {:?}",
+        out.summary
+    );
+}
