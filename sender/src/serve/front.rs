@@ -266,6 +266,11 @@ impl Front {
         })
     }
 
+    /// The controller's last status.
+    pub fn controller_status(&self) -> Status {
+        self.status
+    }
+
     /// What to write to the sender now.
     pub fn take_output(&mut self) -> String {
         std::mem::take(&mut self.out)
@@ -627,15 +632,16 @@ impl Front {
         }
     }
 
+    /// The sender has gone quiet with every line answered: end the path
+    /// so that its last points run. A line whose `ok` waits for the
+    /// controller's credit keeps the path open: the sender waits for that
+    /// `ok`, it has not stopped streaming.
     fn end_path_when_quiet(&mut self) {
         if self.path.open
             && self.lines.is_empty()
-            && self.answers.iter().all(|a| a.when != Release::AtRest)
+            && self.answers.is_empty()
+            && self.rx.pending() == 0
             && self.last_input.elapsed() >= QUIET_END_PATH
-            && self
-                .answers
-                .iter()
-                .all(|a| matches!(a.when, Release::Sent(_) | Release::Now))
         {
             self.end_path();
         }
