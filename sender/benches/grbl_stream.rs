@@ -71,7 +71,7 @@ fn stream(speed: f64, lines: &[String]) -> Run {
     let mut out = String::new();
     let mut answered_s = 0.0;
     loop {
-        while next < lines.len() && used + lines[next].len() + 1 <= SENDER_BUFFER {
+        while next < lines.len() && used + lines[next].len() < SENDER_BUFFER {
             let l = format!("{}\n", lines[next]);
             f.on_bytes(l.as_bytes()).expect("bytes");
             used += l.len();
