@@ -18,8 +18,8 @@ use crate::planner::PlannerSettings;
 pub const DEFAULT_MAX_MOTION_SAMPLES: u64 = 10_000_000;
 
 /// Default of `max_plan_ticks`: 27.8 h of motion at 1 ms. `plan` keeps
-/// no tick beyond a bounded record, so this bounds its running time (about
-/// half a microsecond a tick on a PC: host-sim/README.md), not its memory.
+/// no tick beyond a bounded record, so this bounds its running time
+/// (host-sim/README.md, "Memory of long runs"), not its memory.
 pub const DEFAULT_MAX_PLAN_TICKS: u64 = 100_000_000;
 
 /// A whole configuration file.

@@ -16,7 +16,7 @@ use super::TickRecord;
 
 /// Most buckets a [`Trace`] keeps: runs of up to this many ticks are
 /// recorded tick by tick; the memory of a full record is this many
-/// [`Bucket`]s (about 200 bytes each).
+/// [`Bucket`]s.
 pub const TRACE_BUCKETS: usize = 1 << 17;
 
 /// A value at a tick: the tick's arc length (the plots' abscissa) and the
