@@ -65,8 +65,15 @@ impl StepPins for CountPins {
 /// The simulated axes: the positions the tick sent (the step output's
 /// coordinates) and the step generator that moves them.
 pub struct Recorded {
-    /// Every commanded position, in order.
+    /// The commanded positions, in order: every one, or with
+    /// [`VirtualDevice::keep_last`] the newest ones (`dropped` before
+    /// them).
     pub positions: Vec<Point3Mm>,
+    /// Positions sent before `positions[0]` and no longer kept.
+    pub dropped: usize,
+    /// Keep at least this many of the newest positions, at most twice as
+    /// many (`None`: all).
+    keep: Option<usize>,
     steps: SoftSteps<'static, CountPins>,
 }
 
@@ -89,8 +96,20 @@ impl Recorded {
         };
         Ok(Recorded {
             positions: Vec::new(),
+            dropped: 0,
+            keep: None,
             steps: SoftSteps::new(StepQueue::new(planner, tx, shared), engine, pins),
         })
+    }
+
+    /// Positions sent so far (kept or not).
+    pub fn sent(&self) -> usize {
+        self.dropped + self.positions.len()
+    }
+
+    /// The last position sent.
+    pub fn last(&self) -> Option<Point3Mm> {
+        self.positions.last().copied()
     }
 
     /// Each axis's position in steps: the steps emitted (the engine's
@@ -107,6 +126,14 @@ impl Recorded {
 
 impl StepOutput for Recorded {
     fn update(&mut self, pos: Point3Mm) {
+        if let Some(n) = self.keep {
+            // Dropped in halves: each position is moved at most once.
+            if self.positions.len() >= 2 * n {
+                let old = self.positions.len() - n;
+                self.positions.drain(..old);
+                self.dropped += old;
+            }
+        }
         self.positions.push(pos);
         self.steps.update(pos);
     }
@@ -166,6 +193,14 @@ impl MachineIo for SimMachine {
     }
 }
 
+/// Drop the oldest entries of `v` beyond the newest `n`, once it holds
+/// twice as many.
+fn trim<T>(v: &mut Vec<T>, n: usize) {
+    if v.len() >= 2 * n {
+        v.drain(..v.len() - n);
+    }
+}
+
 /// Background passes per tick at most (a pass that does work is followed
 /// by another, as the firmware's idle loop does).
 const PASSES_PER_TICK: usize = 64;
@@ -199,6 +234,8 @@ pub struct VirtualDevice {
     pub drivers_enabled: bool,
     /// Step settings from the background, for the tick.
     step_settings: Option<StepSettings>,
+    /// How many notices and output changes to keep ([`Self::keep_last`]).
+    keep: Option<usize>,
 }
 
 impl VirtualDevice {
@@ -250,7 +287,19 @@ impl VirtualDevice {
             switches: Vec::new(),
             drivers_enabled: true,
             step_settings: None,
+            keep: None,
         })
+    }
+
+    /// Keep only about the newest `n` (at least 1) of what the device
+    /// records as it runs (the axes' positions, the background's notices,
+    /// the changes of the spindle and coolant outputs), for runs of hours
+    /// where nobody reads the older ones: otherwise the record grows by a
+    /// position every tick.
+    pub fn keep_last(&mut self, n: usize) {
+        let n = n.max(1);
+        self.axes.keep = Some(n);
+        self.keep = Some(n);
     }
 
     /// Bytes from the wire (the receive interrupt), at the time of the
@@ -285,7 +334,7 @@ impl VirtualDevice {
         let notices = &mut self.notices;
         let stack = 0;
         let now_us = self.periods.wrapping_mul(self.tick_us);
-        self.machine.sent = self.axes.positions.len();
+        self.machine.sent = self.axes.sent();
         let busy = self.background.step(
             &mut rtic_core::Exclusive(&mut self.link),
             &mut self.cmd_rx,
@@ -348,6 +397,10 @@ impl VirtualDevice {
             }
         }
         self.tick();
+        if let Some(n) = self.keep {
+            trim(&mut self.notices, n);
+            trim(&mut self.machine.outputs, n);
+        }
     }
 
     /// Everything waiting in the transmit buffer (the wire takes it all).
@@ -383,5 +436,27 @@ impl VirtualDevice {
     /// The background (its planning stage).
     pub fn background(&self) -> &Background<'static> {
         &self.background
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_bounded_record_keeps_the_newest_positions_and_counts_all() {
+        let mut dev = VirtualDevice::new().unwrap();
+        dev.keep_last(4);
+        let at = |k: i32| Point3Mm::from_f64(f64::from(k) * 1e-3, 0.0, 0.0).unwrap();
+        for k in 0..1000 {
+            dev.axes.update(at(k));
+            assert!(dev.axes.positions.len() <= 8);
+        }
+        assert_eq!(dev.axes.sent(), 1000);
+        assert_eq!(dev.axes.last(), Some(at(999)));
+        let kept = dev.axes.positions.len();
+        assert!(kept >= 4);
+        assert_eq!(dev.axes.positions[kept - 4..], [996, 997, 998, 999].map(at));
+        assert_eq!(dev.axes.dropped + kept, 1000);
     }
 }

@@ -341,12 +341,25 @@ pub struct ToolEntry {
     pub length_mm: f64,
 }
 
+/// Most memory a toolpath point takes while a program is read, bytes: the
+/// interpreter's point, feed cap and source line (44 bytes) with the
+/// reserve of their growing vectors (up to as much again), merged into the
+/// toolpath in place ([`Toolpath::with_events`]). `host-sim/README.md`
+/// shows the peak resident size of `host-sim toolpath` per point.
+pub const BYTES_PER_POINT: usize = 96;
+
+/// Memory the default [`Limits::max_points`] allows the points of a
+/// program, bytes.
+pub const DEFAULT_POINTS_MEMORY: usize = 1 << 30;
+
 /// Resource bounds of the reader.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct Limits {
     /// Most points in the toolpath (arcs and curves are checked before
-    /// they are expanded).
+    /// they are expanded); the default is [`DEFAULT_POINTS_MEMORY`] /
+    /// [`BYTES_PER_POINT`]: each point costs the reader at most
+    /// `BYTES_PER_POINT`.
     pub max_points: usize,
     /// Most lines executed beyond the program's own line count (loops and
     /// calls repeat lines).
@@ -358,7 +371,7 @@ pub struct Limits {
 impl Default for Limits {
     fn default() -> Self {
         Limits {
-            max_points: 50_000_000,
+            max_points: DEFAULT_POINTS_MEMORY / BYTES_PER_POINT,
             max_executed_lines: 20_000_000,
             max_call_depth: 10,
         }

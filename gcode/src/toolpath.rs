@@ -90,18 +90,18 @@ impl Toolpath {
         if points.len() != feed_caps.len() || points.len() != lines.len() {
             bail!("toolpath: points, feed caps and lines differ in length");
         }
-        let mut t = Toolpath {
-            name: name.into(),
-            points: Vec::with_capacity(points.len()),
-            feed_caps: Vec::with_capacity(points.len()),
-            lines: Vec::with_capacity(points.len()),
-            events: Vec::with_capacity(events.len()),
-        };
-        // Where each input point ends up: the index of the kept point it is
-        // (or merged into).
-        let mut kept_at = Vec::with_capacity(points.len());
+        // Merged in place (no second copy of a path of millions of
+        // points). The events in order of the point they follow, each
+        // renumbered when its point is reached.
+        let (mut points, mut feed_caps, mut lines) = (points, feed_caps, lines);
+        let mut order: Vec<usize> = (0..events.len()).collect();
+        order.sort_by_key(|&k| events[k].0);
+        let mut at = vec![usize::MAX; events.len()];
+        let mut next_event = order.iter().peekable();
+        let mut kept = 0;
         let mut last: Option<Point3Mm> = None;
-        for ((p, cap), line) in points.into_iter().zip(feed_caps).zip(lines) {
+        for r in 0..points.len() {
+            let (p, cap, line) = (points[r], feed_caps[r], lines[r]);
             if p.iter().any(|c| !c.is_finite()) {
                 bail!("line {line}: coordinate is not finite");
             }
@@ -121,23 +121,42 @@ impl Toolpath {
                     );
                 }
             }
-            if last == Some(fixed) {
-                kept_at.push(t.points.len().saturating_sub(1));
-                continue;
+            // The kept point this input point is (or is merged into).
+            let here = if last == Some(fixed) {
+                kept - 1
+            } else {
+                last = Some(fixed);
+                points[kept] = p;
+                feed_caps[kept] = cap;
+                lines[kept] = line;
+                kept += 1;
+                kept - 1
+            };
+            while let Some(&&k) = next_event.peek().filter(|&&&k| events[k].0 == r) {
+                at[k] = here;
+                next_event.next();
             }
-            last = Some(fixed);
-            kept_at.push(t.points.len());
-            t.points.push(p);
-            t.feed_caps.push(cap);
-            t.lines.push(line);
         }
-        for (i, line, e) in events {
-            let at = kept_at
-                .get(i)
-                .copied()
-                .unwrap_or(t.points.len().saturating_sub(1));
-            t.events.push((at, line, e));
-        }
+        points.truncate(kept);
+        points.shrink_to_fit();
+        feed_caps.truncate(kept);
+        feed_caps.shrink_to_fit();
+        lines.truncate(kept);
+        lines.shrink_to_fit();
+        let t = Toolpath {
+            name: name.into(),
+            points,
+            feed_caps,
+            lines,
+            events: events
+                .into_iter()
+                .zip(at)
+                .map(|((_, line, e), at)| {
+                    // Events after the last point stay after it.
+                    (at.min(kept.saturating_sub(1)), line, e)
+                })
+                .collect(),
+        };
         if t.points.len() < 2 {
             bail!("toolpath {:?} has fewer than two distinct points", t.name);
         }
@@ -231,6 +250,28 @@ pub fn segment_distance(a: [f64; 3], b: [f64; 3], p: [f64; 3]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn merged_points_renumber_events_in_any_order() {
+        let d = |s| MachineEvent::Dwell { s };
+        let t = Toolpath::with_events(
+            "t",
+            vec![[0.0; 3], [1.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]],
+            vec![None; 4],
+            vec![1, 2, 3, 4],
+            vec![
+                (3, 10, d(1.0)),
+                (2, 11, d(2.0)),
+                (0, 12, d(3.0)),
+                (9, 13, d(4.0)),
+            ],
+        )
+        .unwrap();
+        assert_eq!(t.points, vec![[0.0; 3], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]]);
+        assert_eq!(t.lines, vec![1, 2, 4]);
+        let at: Vec<(usize, u32)> = t.events.iter().map(|e| (e.0, e.1)).collect();
+        assert_eq!(at, vec![(2, 10), (1, 11), (0, 12), (2, 13)]);
+    }
 
     #[test]
     fn duplicates_dropped_and_lengths_add_up() {

@@ -17,6 +17,11 @@ use crate::planner::PlannerSettings;
 /// for the commanded and actual positions and the measures taken of them.
 pub const DEFAULT_MAX_MOTION_SAMPLES: u64 = 10_000_000;
 
+/// Default of `max_plan_ticks`: 27.8 h of motion at 1 ms. `plan` keeps
+/// no tick beyond a bounded record, so this bounds its running time
+/// (host-sim/README.md, "Memory of long runs"), not its memory.
+pub const DEFAULT_MAX_PLAN_TICKS: u64 = 100_000_000;
+
 /// A whole configuration file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -26,6 +31,9 @@ pub struct SimConfig {
     /// Most samples (interpolation periods) one simulated motion may have;
     /// a run that would need more is refused before it allocates.
     pub max_motion_samples: u64,
+    /// Most ticks `plan` runs one toolpath for; a longer run is refused
+    /// before it starts.
+    pub max_plan_ticks: u64,
     /// The simulated machine.
     pub machine: MachineConfig,
     /// The scheduling methods' settings.
@@ -42,6 +50,7 @@ impl Default for SimConfig {
         SimConfig {
             interpolation_period_ms: 1.0,
             max_motion_samples: DEFAULT_MAX_MOTION_SAMPLES,
+            max_plan_ticks: DEFAULT_MAX_PLAN_TICKS,
             machine: MachineConfig::default(),
             methods: MethodSettings::default(),
             gcode: GcodeSettings::default(),
@@ -86,6 +95,10 @@ impl SimConfig {
         anyhow::ensure!(
             self.max_motion_samples >= 1000,
             "max_motion_samples must be at least 1000"
+        );
+        anyhow::ensure!(
+            self.max_plan_ticks >= 1000,
+            "max_plan_ticks must be at least 1000"
         );
         self.machine.validate(self.ts_s())?;
         self.planner.validate(self.ts_s())?;

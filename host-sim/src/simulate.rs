@@ -70,8 +70,8 @@ pub fn run_schedule(
     let motion = match method {
         Method::FuzzyPlanner | Method::Planner => {
             let points = planner::motion_points(path, feeds, &schedule.curvature_per_mm)?;
-            let planned = planner::plan(&points, &path.lines, &config.planner)?;
-            planner::machine::follow(&config.machine, planned.commanded(), ts)
+            let (_, commanded) = planner::plan_commanded(&points, &path.lines, &config.planner)?;
+            planner::machine::follow(&config.machine, commanded, ts)
         }
         Method::GrblLike => {
             let s = &config.methods.grbl_like;
@@ -181,7 +181,8 @@ pub fn check_motion_samples(
     Ok(())
 }
 
-fn duration_text(t_s: f64) -> String {
+/// A duration for messages: hours from an hour on, else seconds.
+pub fn duration_text(t_s: f64) -> String {
     if !t_s.is_finite() {
         "forever (a zero feed)".into()
     } else if t_s >= 3600.0 {

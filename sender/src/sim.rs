@@ -21,6 +21,11 @@ use controller::sim::VirtualDevice;
 use controller::store::MemFlash;
 use fuzzy_core::units::Point3Mm;
 
+/// Newest entries of each of the device's records kept (positions,
+/// notices, output changes): their memory stays bounded however long the
+/// simulated run.
+const KEEP_RECORDS: usize = 1024;
+
 /// What the simulated controller did, when its thread ends.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SimReport {
@@ -145,6 +150,9 @@ pub fn start_from(
         .name("sim-controller".into())
         .spawn(move || match VirtualDevice::with_flash(flash) {
             Ok(mut d) => {
+                // Only the last position is read (the report): a run of
+                // hours keeps no more than a few of each record.
+                d.keep_last(KEEP_RECORDS);
                 setup(&mut d);
                 let _ = ready_tx.send(Ok(()));
                 while !go2.load(Ordering::Relaxed) && !stop2.load(Ordering::Relaxed) {
@@ -262,8 +270,8 @@ fn run(
     }
     SimReport {
         ticks,
-        last_position: dev.axes.positions.last().copied(),
-        positions: dev.axes.positions.len(),
+        last_position: dev.axes.last(),
+        positions: dev.axes.sent(),
         last_heard_tick,
         last_move_tick,
     }

@@ -100,6 +100,13 @@ pub fn run(args: &Args) -> Result<()> {
             )?;
         }
         text.push_str(&figures::text(figs));
+        let stride = run.trace.stride();
+        if stride > 1 {
+            text.push_str(&format!(
+                "  note: {} ticks: {name}_plan_ticks.csv holds every {stride}th and the last, the plot each stretch's extremes (the figures above are of every tick)\n",
+                run.ticks
+            ));
+        }
         all.push(figs.clone());
     }
     text.push('\n');
@@ -134,6 +141,8 @@ pub fn plan_one(
         ),
     };
     let schedule = methods::schedule(method, path, f_max, config.ts_s(), &config.methods)?;
+    check_plan_ticks(&path.points, &schedule.feeds_mm_per_min, config)
+        .with_context(|| format!("planning {}", path.name))?;
     let points =
         planner::motion_points(path, &schedule.feeds_mm_per_min, &schedule.curvature_per_mm)?;
     let run = planner::plan(&points, &path.lines, &config.planner)
@@ -142,17 +151,42 @@ pub fn plan_one(
     Ok((prepared.clone(), schedule, run, figs))
 }
 
+/// Refuse, before it starts, a plan of more than `max_plan_ticks` ticks
+/// (at least as many as the path takes at its scheduled feeds).
+pub fn check_plan_ticks(
+    points: &[[f64; 3]],
+    feeds_mm_per_min: &[f64],
+    config: &SimConfig,
+) -> Result<()> {
+    let n = crate::simulate::motion_samples_at_least(points, feeds_mm_per_min, config);
+    let max = config.max_plan_ticks;
+    if n.is_nan() || n > max as f64 {
+        anyhow::bail!(
+            "the motion would take at least {} at the scheduled feeds, over {} ticks of {} ms: more than max_plan_ticks = {max}, which bounds the planning time (memory does not grow with the ticks); set max_plan_ticks in the --config TOML file to plan it",
+            crate::simulate::duration_text(n * config.ts_s()),
+            if n.is_finite() { format!("{n:.0}") } else { "infinitely many".into() },
+            config.interpolation_period_ms,
+        );
+    }
+    Ok(())
+}
+
 fn create(path: &Path) -> Result<crate::output::Output> {
     crate::output::Output::create(path)
 }
 
+/// The ticks CSV from the run's record: every tick, or on a long run every
+/// `stride`-th tick and the last.
 fn write_ticks(path: &Path, run: &PlannedRun) -> Result<()> {
     let mut w = create(path)?;
     writeln!(
         w,
         "t_s,s_mm,x_mm,y_mm,z_mm,speed_mm_per_min,accel_mm_per_s2,point,state"
     )?;
-    for (k, t) in run.ticks.iter().enumerate() {
+    let rows = run.trace.buckets().iter().map(|b| (b.tick, b.first));
+    let end = run.ticks.saturating_sub(1);
+    let last = (run.trace.buckets().last().map(|b| b.tick) != Some(end)).then_some((end, run.last));
+    for (k, t) in rows.chain(last) {
         writeln!(
             w,
             "{},{},{},{},{},{},{},{},{:?}",

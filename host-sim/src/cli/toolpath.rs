@@ -1,5 +1,6 @@
 //! `host-sim toolpath`: a G-code or CSV toolpath as a CSV point list.
 
+use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Result;
@@ -26,20 +27,25 @@ pub fn run(args: &Args) -> Result<()> {
     let input = &args.input;
     let (t, warnings) = crate::inputs::load_with_warnings(input, &c.gcode)?;
     print_warnings(input, &warnings);
-    let mut out = String::new();
-    out.push_str(&format!(
+    // Written as it is formatted: the text of millions of points is not
+    // held in memory; a closed stdout ends the run with an error.
+    let mut out = std::io::BufWriter::new(std::io::stdout().lock());
+    write!(
+        out,
         "# {} from {}, {} points, {:.3} mm; 4th column: programmed feed, mm/min\nx,y,z,feed\n",
         t.name,
         input.display(),
         t.len(),
         t.length_mm()
-    ));
-    for i in 0..t.len() {
-        let p = t.points[i];
-        let f = t.feed_caps[i].map_or(String::new(), |f| format!("{f}"));
-        out.push_str(&format!("{},{},{},{}\n", p[0], p[1], p[2], f));
+    )?;
+    for (p, cap) in t.points.iter().zip(&t.feed_caps) {
+        write!(out, "{},{},{},", p[0], p[1], p[2])?;
+        if let Some(f) = cap {
+            write!(out, "{f}")?;
+        }
+        writeln!(out)?;
     }
-    print!("{out}");
+    out.flush()?;
     Ok(())
 }
 

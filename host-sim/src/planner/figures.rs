@@ -42,7 +42,7 @@
 
 use serde::Serialize;
 
-use super::{PlannedRun, PlannerSettings};
+use super::{PlannedRun, PlannerSettings, PointPlan};
 use crate::toolpath::distance;
 
 /// A position quantum, mm.
@@ -138,6 +138,244 @@ impl PlanFigures {
     }
 }
 
+/// What the ticks give of [`PlanFigures`], measured from every tick as it
+/// comes ([`Meter`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TickFigures {
+    /// Peak |axis velocity| / axis limit (X, Y, Z).
+    pub axis_velocity_ratio: [f64; 3],
+    /// Peak |axis acceleration| / axis limit (X, Y, Z).
+    pub axis_accel_ratio: [f64; 3],
+    /// Peak |axis jerk|, mm/s³.
+    pub axis_jerk_mm_per_s3: [f64; 3],
+    /// Peak |tangential acceleration| / `ρ·min A`.
+    pub tangential_accel_ratio: f64,
+    /// Peak |tangential jerk| / `J`.
+    pub tangential_jerk_ratio: f64,
+    /// Ticks from the peak tangential jerk to the end.
+    pub tangential_jerk_peak_ticks_before_end: usize,
+    /// Largest chord deviation, mm.
+    pub chord_deviation_mm: f64,
+    /// Largest speed above a point's ceiling, mm/min (−∞: no interior
+    /// point passed).
+    pub over_ceiling_mm_per_min: f64,
+    /// Peak speed, mm/min.
+    pub peak_speed_mm_per_min: f64,
+}
+
+/// One commanded position with the arc length and speed reported with it.
+#[derive(Clone, Copy, Debug)]
+struct Sample {
+    pos: [f64; 3],
+    s: f64,
+    speed: f64,
+}
+
+/// Measures a tick stream as it comes, keeping only a few ticks: the last
+/// four for the differences, and for the chord and ceiling checks those
+/// whose path points are not yet known (the planner hands a point's plan
+/// over once the tool reaches it: [`super::plan`]).
+///
+/// The positions are the start (arc length and speed 0) and then each
+/// tick's; the figures are those of a pass over all of them at the end,
+/// bit for bit.
+pub struct Meter {
+    ts: f64,
+    vmax: [f64; 3],
+    amax: [f64; 3],
+    acc_t: f64,
+    jerk_t: f64,
+    /// Smoothing ticks − 1: how far the chord check looks ahead.
+    lag: usize,
+    /// Path points of the run.
+    n_points: usize,
+    /// The last four samples, the newest last.
+    win: [Sample; 4],
+    /// Samples seen (the start included).
+    seen: u64,
+    /// Index of the window of four that gave the peak jerk.
+    jerk_peak_at: u64,
+    /// Samples not yet checked against the points, from index `base` on.
+    pending: std::collections::VecDeque<Sample>,
+    /// Next point the chord check may reach, and next interior point to
+    /// compare with its ceiling.
+    chord_from: usize,
+    ceiling_next: usize,
+    /// Most samples `pending` held.
+    pending_peak: usize,
+    f: TickFigures,
+}
+
+impl Meter {
+    /// A meter for a run of `n_points` path points from `start`, with
+    /// `settings`, tangential acceleration limit `acc_t` (mm/s²) and
+    /// interpolation period `ts` (s).
+    pub fn new(
+        settings: &PlannerSettings,
+        acc_t: f64,
+        ts: f64,
+        start: [f64; 3],
+        n_points: usize,
+    ) -> Self {
+        let first = Sample {
+            pos: start,
+            s: 0.0,
+            speed: 0.0,
+        };
+        Meter {
+            ts,
+            vmax: settings.axis_speed_max_mm_per_min.map(|v| v / 60.0),
+            amax: settings.axis_accel_max_mm_per_s2.map(|a| a as f64),
+            acc_t,
+            jerk_t: settings.jerk_max_mm_per_s3 as f64,
+            lag: usize::from(settings.smoothing_ticks.max(1)) - 1,
+            n_points,
+            win: [first; 4],
+            seen: 1,
+            jerk_peak_at: 0,
+            pending: std::collections::VecDeque::from([first]),
+            chord_from: 0,
+            ceiling_next: 1,
+            pending_peak: 1,
+            f: TickFigures {
+                axis_velocity_ratio: [0.0; 3],
+                axis_accel_ratio: [0.0; 3],
+                axis_jerk_mm_per_s3: [0.0; 3],
+                tangential_accel_ratio: 0.0,
+                tangential_jerk_ratio: 0.0,
+                tangential_jerk_peak_ticks_before_end: 0,
+                chord_deviation_mm: 0.0,
+                over_ceiling_mm_per_min: f64::NEG_INFINITY,
+                peak_speed_mm_per_min: 0.0,
+            },
+        }
+    }
+
+    /// The next tick's position, arc length and speed (mm, mm, mm/s); it
+    /// returns the per-axis acceleration of the tick before (the second
+    /// difference with this one in it), if there was one.
+    pub fn tick(&mut self, pos: [f64; 3], s: f64, speed: f64) -> Option<[f64; 3]> {
+        let x = Sample { pos, s, speed };
+        self.win.rotate_left(1);
+        self.win[3] = x;
+        self.seen += 1;
+        let (ts, n) = (self.ts, self.seen);
+        let f = &mut self.f;
+        let [_, w0, w1, w2] = self.win.map(|w| w.pos);
+        for a in 0..3 {
+            let v = (w2[a] - w1[a]) / ts;
+            f.axis_velocity_ratio[a] = f.axis_velocity_ratio[a].max(v.abs() / self.vmax[a]);
+        }
+        let [_, s0, s1, s2] = self.win.map(|w| w.s);
+        f.peak_speed_mm_per_min = f.peak_speed_mm_per_min.max((s2 - s1) / ts * 60.0);
+        let mut acc = None;
+        if n >= 3 {
+            let mut axis = [0.0; 3];
+            for (a, out) in axis.iter_mut().enumerate() {
+                let acc = (w2[a] - 2.0 * w1[a] + w0[a]) / (ts * ts);
+                f.axis_accel_ratio[a] = f.axis_accel_ratio[a].max(acc.abs() / self.amax[a]);
+                *out = acc;
+            }
+            acc = Some(axis);
+            let a = (s2 - 2.0 * s1 + s0) / (ts * ts);
+            f.tangential_accel_ratio = f.tangential_accel_ratio.max(a.abs() / self.acc_t);
+        }
+        if n >= 4 {
+            let p = self.win.map(|w| w.pos);
+            for (a, peak) in f.axis_jerk_mm_per_s3.iter_mut().enumerate() {
+                let j = (p[3][a] - 3.0 * p[2][a] + 3.0 * p[1][a] - p[0][a]) / (ts * ts * ts);
+                *peak = peak.max(j.abs());
+            }
+            let q = self.win.map(|w| w.s);
+            let j = (q[3] - 3.0 * q[2] + 3.0 * q[1] - q[0]) / (ts * ts * ts);
+            if j.abs() / self.jerk_t > f.tangential_jerk_ratio {
+                f.tangential_jerk_ratio = j.abs() / self.jerk_t;
+                self.jerk_peak_at = n - 4;
+            }
+        }
+        self.pending.push_back(x);
+        self.pending_peak = self.pending_peak.max(self.pending.len());
+        acc
+    }
+
+    /// Check what can be checked against `pts` (the plans of the first
+    /// points, in order); `horizon`: the arc length of the first point not
+    /// in `pts`, if known (none: nothing beyond `pts` is known yet, unless
+    /// `pts` is the whole path).
+    pub fn check(&mut self, pts: &[PointPlan], horizon: Option<f64>) {
+        let all = pts.len() == self.n_points;
+        while self.pending.len() > self.lag + 1 {
+            // Every point at or before the end of the move is known.
+            let s1 = self.pending[1].s;
+            if !all && horizon.is_none_or(|h| h <= s1) {
+                return;
+            }
+            self.check_first(pts, self.pending.len());
+        }
+    }
+
+    /// Check the move from the oldest pending sample to the next; the
+    /// chord check looks at up to `lag` moves after it among the `avail`
+    /// samples pending.
+    fn check_first(&mut self, pts: &[PointPlan], avail: usize) {
+        let (x0, x1) = (self.pending[0], self.pending[1]);
+        let (s0, s1) = (x0.s, x1.s);
+        // Chord deviation: vertices strictly between two ticks (with
+        // smoothing, the nearest of the moves up to `lag` ticks later).
+        let mut j = self.chord_from;
+        while j < pts.len() && pts[j].s_mm <= s0 {
+            j += 1;
+        }
+        self.chord_from = j;
+        let last = self.lag.min(avail - 2);
+        let mut i = j;
+        while i < pts.len() && pts[i].s_mm < s1 {
+            let d = (0..=last)
+                .map(|m| segment_distance(pts[i].pos, self.pending[m].pos, self.pending[m + 1].pos))
+                .fold(f64::INFINITY, f64::min);
+            self.f.chord_deviation_mm = self.f.chord_deviation_mm.max(d);
+            i += 1;
+        }
+        // The speed passing each interior point (interpolated on the move
+        // that reaches it) vs its ceiling.
+        while self.ceiling_next + 1 < self.n_points
+            && self.ceiling_next < pts.len()
+            && pts[self.ceiling_next].s_mm <= s1
+        {
+            let p = &pts[self.ceiling_next];
+            let u = if s1 > s0 {
+                ((p.s_mm - s0) / (s1 - s0)).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let v = x0.speed + u * (x1.speed - x0.speed);
+            self.f.over_ceiling_mm_per_min = self
+                .f
+                .over_ceiling_mm_per_min
+                .max((v - p.ceiling_mm_per_s) * 60.0);
+            self.ceiling_next += 1;
+        }
+        self.pending.pop_front();
+    }
+
+    /// Most samples held at once for the chord and ceiling checks.
+    pub fn pending_peak(&self) -> usize {
+        self.pending_peak
+    }
+
+    /// The figures, with `pts` the plans of all points of the path.
+    pub fn finish(mut self, pts: &[PointPlan]) -> TickFigures {
+        while self.pending.len() >= 2 {
+            self.check_first(pts, self.pending.len());
+        }
+        let n = self.seen;
+        if n >= 4 {
+            self.f.tangential_jerk_peak_ticks_before_end = (n - 4 - self.jerk_peak_at) as usize;
+        }
+        self.f
+    }
+}
+
 /// Measure `run`, planned with `settings`.
 pub fn measure(
     name: &str,
@@ -146,16 +384,13 @@ pub fn measure(
     settings: &PlannerSettings,
 ) -> PlanFigures {
     let ts = run.ts_s;
-    let pos = run.commanded();
-    let s: Vec<f64> = std::iter::once(0.0)
-        .chain(run.ticks.iter().map(|t| t.s_mm))
-        .collect();
     let vmax = settings.axis_speed_max_mm_per_min.map(|v| v / 60.0);
     let amax = settings.axis_accel_max_mm_per_s2.map(|a| a as f64);
     let (acc_t, jerk_t) = (
         run.accel_limit_mm_per_s2,
         settings.jerk_max_mm_per_s3 as f64,
     );
+    let m = &run.measured;
     let mut f = PlanFigures {
         path: name.to_string(),
         feeds: feeds.to_string(),
@@ -169,7 +404,19 @@ pub fn measure(
             settings.chord_tolerance_mm
         },
         tangential_limits: [acc_t, jerk_t],
-        over_ceiling_mm_per_min: f64::NEG_INFINITY,
+        axis_velocity_ratio: m.axis_velocity_ratio,
+        axis_accel_ratio: m.axis_accel_ratio,
+        axis_jerk_mm_per_s3: m.axis_jerk_mm_per_s3,
+        tangential_accel_ratio: m.tangential_accel_ratio,
+        tangential_jerk_ratio: m.tangential_jerk_ratio,
+        tangential_jerk_peak_ticks_before_end: m.tangential_jerk_peak_ticks_before_end,
+        chord_deviation_mm: m.chord_deviation_mm,
+        over_ceiling_mm_per_min: if m.over_ceiling_mm_per_min.is_finite() {
+            m.over_ceiling_mm_per_min
+        } else {
+            0.0
+        },
+        peak_speed_mm_per_min: m.peak_speed_mm_per_min,
         ..Default::default()
     };
     let amin = amax.iter().copied().fold(f64::INFINITY, f64::min);
@@ -197,84 +444,6 @@ pub fn measure(
     f.time_ratio = f.cycle_time_s / f.reference_time_s;
     f.ideal_time_s = fuzzy_core::reference::time_optimal_s(&ideal_nodes(run, settings), amin, ds);
     f.ideal_time_ratio = f.cycle_time_s / f.ideal_time_s;
-    // Axes, from positions.
-    for w in pos.windows(2) {
-        for a in 0..3 {
-            let v = (w[1][a] - w[0][a]) / ts;
-            f.axis_velocity_ratio[a] = f.axis_velocity_ratio[a].max(v.abs() / vmax[a]);
-        }
-    }
-    for w in pos.windows(3) {
-        for a in 0..3 {
-            let acc = (w[2][a] - 2.0 * w[1][a] + w[0][a]) / (ts * ts);
-            f.axis_accel_ratio[a] = f.axis_accel_ratio[a].max(acc.abs() / amax[a]);
-        }
-    }
-    for w in pos.windows(4) {
-        for (a, peak) in f.axis_jerk_mm_per_s3.iter_mut().enumerate() {
-            let j = (w[3][a] - 3.0 * w[2][a] + 3.0 * w[1][a] - w[0][a]) / (ts * ts * ts);
-            *peak = peak.max(j.abs());
-        }
-    }
-    // Tangential, from the arc length.
-    for w in s.windows(2) {
-        f.peak_speed_mm_per_min = f.peak_speed_mm_per_min.max((w[1] - w[0]) / ts * 60.0);
-    }
-    for w in s.windows(3) {
-        let a = (w[2] - 2.0 * w[1] + w[0]) / (ts * ts);
-        f.tangential_accel_ratio = f.tangential_accel_ratio.max(a.abs() / acc_t);
-    }
-    for (k, w) in s.windows(4).enumerate() {
-        let j = (w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0]) / (ts * ts * ts);
-        if j.abs() / jerk_t > f.tangential_jerk_ratio {
-            f.tangential_jerk_ratio = j.abs() / jerk_t;
-            f.tangential_jerk_peak_ticks_before_end = s.len() - 4 - k;
-        }
-    }
-    // Chord deviation: vertices strictly between two ticks (with smoothing,
-    // the nearest of the moves up to `n − 1` ticks later).
-    let pts = &run.points;
-    let lag = usize::from(settings.smoothing_ticks.max(1)) - 1;
-    let mut j = 0;
-    for k in 0..pos.len() - 1 {
-        let (s0, s1) = (s[k], s[k + 1]);
-        while j < pts.len() && pts[j].s_mm <= s0 {
-            j += 1;
-        }
-        let mut i = j;
-        while i < pts.len() && pts[i].s_mm < s1 {
-            let d = (k..=(k + lag).min(pos.len() - 2))
-                .map(|m| segment_distance(pts[i].pos, pos[m], pos[m + 1]))
-                .fold(f64::INFINITY, f64::min);
-            f.chord_deviation_mm = f.chord_deviation_mm.max(d);
-            i += 1;
-        }
-    }
-    // Speed passing each interior point vs its ceiling.
-    let speed: Vec<f64> = std::iter::once(0.0)
-        .chain(run.ticks.iter().map(|t| t.speed_mm_per_s))
-        .collect();
-    let mut k = 0;
-    for p in pts.iter().skip(1).take(pts.len().saturating_sub(2)) {
-        while k + 1 < s.len() && s[k + 1] < p.s_mm {
-            k += 1;
-        }
-        if k + 1 < s.len() {
-            let (s0, s1) = (s[k], s[k + 1]);
-            let u = if s1 > s0 {
-                ((p.s_mm - s0) / (s1 - s0)).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            let v = speed[k] + u * (speed[k + 1] - speed[k]);
-            f.over_ceiling_mm_per_min = f
-                .over_ceiling_mm_per_min
-                .max((v - p.ceiling_mm_per_s) * 60.0);
-        }
-    }
-    if !f.over_ceiling_mm_per_min.is_finite() {
-        f.over_ceiling_mm_per_min = 0.0;
-    }
     f
 }
 

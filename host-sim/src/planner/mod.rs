@@ -12,11 +12,19 @@
 //! - [`machine`]: how the tick stream reaches each simulated machine;
 //! - [`figures`]: the plan report (cycle time vs the time-optimal reference,
 //!   peak ratios to the limits, chord deviation);
-//! - [`plot`]: the speed profile against arc length.
+//! - [`plot`]: the speed profile against arc length;
+//! - [`trace`]: the bounded record of the ticks the plot and the ticks CSV
+//!   are drawn from.
+//!
+//! Nothing grows with the number of ticks: the figures are measured as the
+//! ticks come, the record is of bounded size, and a caller that needs
+//! every commanded position (the machine simulation of `compare`) gets
+//! them through [`plan_commanded`].
 
 pub mod figures;
 pub mod machine;
 pub mod plot;
+pub mod trace;
 
 use anyhow::{bail, Context, Result};
 use fuzzy_core::planner::{Motion, MotionConfig, MotionError, MotionPoint, MotionState};
@@ -178,33 +186,37 @@ pub struct PointPlan {
     pub curvature_per_mm: f64,
 }
 
-/// A planned motion: the tick stream and the plan.
+/// A planned motion: what its ticks measured, a bounded record of them,
+/// and the plan. No tick is kept beyond the record: the run's memory does
+/// not grow with its duration.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PlannedRun {
     /// Interpolation period, s.
     pub ts_s: f64,
     /// Where the tool starts (the path's first point), mm.
     pub start: [f64; 3],
-    /// One record per tick, the last one `Done`.
-    pub ticks: Vec<TickRecord>,
+    /// Ticks until the tool is at rest at the end.
+    pub ticks: u64,
+    /// The last tick (`Done`).
+    pub last: TickRecord,
+    /// The figures of every tick ([`figures::Meter`]).
+    pub measured: figures::TickFigures,
+    /// The ticks for plots and CSV: every one, or evenly spaced ones with
+    /// the extremes between them on long runs ([`trace`]).
+    pub trace: trace::Trace,
     /// Every path point with its ceiling, cap and envelope.
     pub points: Vec<PointPlan>,
     /// The planner's tangential acceleration limit, mm/s².
     pub accel_limit_mm_per_s2: f64,
+    /// Most ticks held at once until the points they pass were known
+    /// ([`figures::Meter::check`]).
+    pub held_ticks_peak: usize,
 }
 
 impl PlannedRun {
     /// Cycle time: ticks until the tool is at rest at the end, s.
     pub fn cycle_time_s(&self) -> f64 {
-        self.ticks.len() as f64 * self.ts_s
-    }
-
-    /// Commanded positions at `t = 0, Ts, 2Ts, …` (the start, then every
-    /// tick): what the machine receives.
-    pub fn commanded(&self) -> Vec<[f64; 3]> {
-        std::iter::once(self.start)
-            .chain(self.ticks.iter().map(|t| t.pos))
-            .collect()
+        self.ticks as f64 * self.ts_s
     }
 }
 
@@ -244,13 +256,37 @@ pub fn plan(
     lines: &[u32],
     settings: &PlannerSettings,
 ) -> Result<PlannedRun> {
-    let cfg = settings.motion_config();
+    plan_with(points, lines, settings, &mut |_| {})
+}
+
+/// [`plan`], and every commanded position: the start, then one per tick
+/// (what the machine receives at `t = 0, Ts, 2Ts, …`). Its length grows
+/// with the duration: the caller bounds it first (`compare` checks
+/// `max_motion_samples`).
+pub fn plan_commanded(
+    points: &[MotionPoint],
+    lines: &[u32],
+    settings: &PlannerSettings,
+) -> Result<(PlannedRun, Vec<[f64; 3]>)> {
+    let start = points.first().map_or([0.0; 3], |p| p.pos.to_f64());
+    let mut commanded = vec![start];
+    let run = plan_with(points, lines, settings, &mut |t| commanded.push(t.pos))?;
+    Ok((run, commanded))
+}
+
+/// [`plan`], handing each tick to `on_tick` as it comes.
+pub fn plan_with(
+    points: &[MotionPoint],
+    lines: &[u32],
+    settings: &PlannerSettings,
+    on_tick: &mut dyn FnMut(&TickRecord),
+) -> Result<PlannedRun> {
     match settings.buffer_points {
-        16 => stream::<16>(cfg, points, lines),
-        64 => stream::<64>(cfg, points, lines),
-        256 => stream::<256>(cfg, points, lines),
-        1024 => stream::<1024>(cfg, points, lines),
-        4096 => stream::<4096>(cfg, points, lines),
+        16 => stream::<16>(points, lines, settings, on_tick),
+        64 => stream::<64>(points, lines, settings, on_tick),
+        256 => stream::<256>(points, lines, settings, on_tick),
+        1024 => stream::<1024>(points, lines, settings, on_tick),
+        4096 => stream::<4096>(points, lines, settings, on_tick),
         n => bail!("planner.buffer_points = {n}: one of {SUPPORTED_BUFFERS:?}"),
     }
 }
@@ -262,6 +298,10 @@ pub fn plan(
 /// planner.
 struct Recorder {
     points: Vec<PointPlan>,
+    /// Arc length of the first point not yet recorded, where the planner
+    /// has it (the chord and ceiling checks wait for the points they
+    /// need: [`figures::Meter::check`]).
+    horizon: Option<f64>,
 }
 
 impl Recorder {
@@ -271,13 +311,17 @@ impl Recorder {
     fn take<const N: usize>(&mut self, m: &Motion<N>, upto: Option<u32>) {
         let to_s = |f: FeedMmPerMin| f.to_f64() / 60.0;
         let mut it = m.planned().peekable();
+        self.horizon = None;
         while let Some(p) = it.next() {
             let i = p.index as usize;
-            if upto.is_some_and(|u| p.index > u) || (upto.is_some() && it.peek().is_none()) {
-                break;
-            }
             if i < self.points.len() {
                 continue;
+            }
+            if upto.is_some_and(|u| p.index > u) || (upto.is_some() && it.peek().is_none()) {
+                if i == self.points.len() {
+                    self.horizon = Some(p.s_mm.to_num());
+                }
+                break;
             }
             // Points arrive in order; a gap would be a planner change.
             debug_assert_eq!(i, self.points.len());
@@ -295,35 +339,74 @@ impl Recorder {
     }
 }
 
-fn stream<const N: usize>(
-    cfg: MotionConfig,
-    points: &[MotionPoint],
-    lines: &[u32],
-) -> Result<PlannedRun> {
-    let ts_s = cfg.tick_us as f64 * 1e-6;
-    let mut m: Box<Motion<N>> =
-        Box::new(Motion::new(cfg).map_err(|e| anyhow::anyhow!("planner: {e}"))?);
-    let mut ticks: Vec<TickRecord> = Vec::new();
-    let mut rec = Recorder { points: Vec::new() };
-    let tick = |m: &mut Motion<N>, ticks: &mut Vec<TickRecord>, rec: &mut Recorder| {
-        rec.take(m, Some(ticks.last().map_or(0, |t: &TickRecord| t.point)));
+/// The tick stream's consumers: the count, the meter, the record and the
+/// caller's `on_tick`.
+struct Ticks<'a> {
+    ts_s: f64,
+    count: u64,
+    /// The newest tick, not yet in the record (its acceleration needs the
+    /// tick after it).
+    last: Option<TickRecord>,
+    meter: figures::Meter,
+    trace: trace::Trace,
+    on_tick: &'a mut dyn FnMut(&TickRecord),
+}
+
+impl Ticks<'_> {
+    /// One tick of `m`: record the points it has reached so far, run it,
+    /// measure it.
+    fn tick<const N: usize>(&mut self, m: &mut Motion<N>, rec: &mut Recorder) -> MotionState {
+        rec.take(m, Some(self.last.map_or(0, |t| t.point)));
         let t = m.tick();
-        ticks.push(TickRecord {
+        let r = TickRecord {
             pos: t.pos.to_f64(),
             s_mm: t.s_mm.to_num(),
             speed_mm_per_s: m.speed_mm_per_min(t.speed).to_f64() / 60.0,
-            accel_mm_per_s2: t.accel.to_mm_per_s2_f64(ts_s),
+            accel_mm_per_s2: t.accel.to_mm_per_s2_f64(self.ts_s),
             point: t.point,
             state: t.state,
-        });
+        };
+        self.count += 1;
+        let acc = self.meter.tick(r.pos, r.s_mm, r.speed_mm_per_s);
+        self.meter.check(&rec.points, rec.horizon);
+        if let Some(prev) = self.last.replace(r) {
+            self.trace.push(&prev, acc);
+        }
+        (self.on_tick)(&r);
         t.state
+    }
+}
+
+fn stream<const N: usize>(
+    points: &[MotionPoint],
+    lines: &[u32],
+    settings: &PlannerSettings,
+    on_tick: &mut dyn FnMut(&TickRecord),
+) -> Result<PlannedRun> {
+    let cfg = settings.motion_config();
+    let ts_s = cfg.tick_us as f64 * 1e-6;
+    let mut m: Box<Motion<N>> =
+        Box::new(Motion::new(cfg).map_err(|e| anyhow::anyhow!("planner: {e}"))?);
+    let start = points.first().map_or([0.0; 3], |p| p.pos.to_f64());
+    let accel_limit_mm_per_s2: f64 = m.accel_limit_mm_s2().to_num();
+    let mut rec = Recorder {
+        points: Vec::new(),
+        horizon: None,
+    };
+    let mut ticks = Ticks {
+        ts_s,
+        count: 0,
+        last: None,
+        meter: figures::Meter::new(settings, accel_limit_mm_per_s2, ts_s, start, points.len()),
+        trace: trace::Trace::new(start, trace::TRACE_BUCKETS),
+        on_tick,
     };
     for (i, p) in points.iter().enumerate() {
         loop {
             match m.push(*p) {
                 Ok(()) => break,
                 Err(MotionError::Full) => {
-                    tick(&mut m, &mut ticks, &mut rec);
+                    ticks.tick(&mut *m, &mut rec);
                 }
                 Err(e) => bail!("line {}: planner: {e}", lines.get(i).copied().unwrap_or(0)),
             }
@@ -338,9 +421,9 @@ fn stream<const N: usize>(
             crate::toolpath::distance(a, b)
         })
         .sum::<f64>();
-    let limit = ticks.len() + 10_000_000 + (length * 1e3) as usize;
-    while tick(&mut m, &mut ticks, &mut rec) != MotionState::Done {
-        if ticks.len() > limit {
+    let limit = ticks.count + 10_000_000 + (length * 1e3) as u64;
+    while ticks.tick(&mut *m, &mut rec) != MotionState::Done {
+        if ticks.count > limit {
             bail!("planner: the tool did not arrive within {limit} ticks");
         }
     }
@@ -356,12 +439,25 @@ fn stream<const N: usize>(
         p.feed_mm_per_s = input.feed.to_f64() / 60.0;
         p.curvature_per_mm = input.curvature.to_f64();
     }
+    let Ticks {
+        count,
+        last,
+        meter,
+        mut trace,
+        ..
+    } = ticks;
+    let last = last.context("planner: no tick")?;
+    trace.push(&last, None);
     Ok(PlannedRun {
         ts_s,
-        start: points.first().map_or([0.0; 3], |p| p.pos.to_f64()),
-        ticks,
+        start,
+        ticks: count,
+        last,
+        held_ticks_peak: meter.pending_peak(),
+        measured: meter.finish(&rec.points),
+        trace,
         points: rec.points,
-        accel_limit_mm_per_s2: m.accel_limit_mm_s2().to_num(),
+        accel_limit_mm_per_s2,
     })
 }
 
@@ -429,18 +525,45 @@ mod tests {
             let run = plan(&pts, &path.lines, &s).unwrap();
             assert_eq!(run.points.len(), path.len());
             assert!(run.points.windows(2).all(|w| w[1].s_mm > w[0].s_mm));
-            let last = run.ticks.last().unwrap();
+            let last = run.last;
             assert_eq!(last.state, MotionState::Done);
             assert_eq!(last.pos, [100.0, 0.0, 0.0]);
             // 100 mm at 50 mm/s plus the ramps.
             let t = run.cycle_time_s();
             assert!(t > 2.0 && t < 2.2, "{buffer}: {t}");
             let vmax = run
-                .ticks
+                .trace
+                .buckets()
                 .iter()
-                .map(|t| t.speed_mm_per_s)
+                .map(|b| b.speed.hi.value)
                 .fold(0.0, f64::max);
             assert!((vmax - 50.0).abs() < 0.01, "{vmax}");
+        }
+    }
+
+    #[test]
+    fn long_segments_hold_no_more_than_a_few_ticks() {
+        // Three points two metres apart: minutes of ticks between points,
+        // each measured as it comes.
+        let path = Toolpath::from_points(
+            "long",
+            vec![
+                [-1000.0, 0.0, 0.0],
+                [1000.0, 0.0, 0.0],
+                [1000.0, 500.0, 0.0],
+            ],
+        )
+        .unwrap();
+        let pts = motion_points(&path, &[3000.0; 3], &[]).unwrap();
+        for smoothing_ticks in [1, 2] {
+            let s = PlannerSettings {
+                smoothing_ticks,
+                ..Default::default()
+            };
+            let run = plan(&pts, &path.lines, &s).unwrap();
+            assert!(run.ticks > 50_000, "{}", run.ticks);
+            assert!(run.held_ticks_peak <= 8, "{}", run.held_ticks_peak);
+            assert_eq!(run.last.pos, [1000.0, 500.0, 0.0]);
         }
     }
 }

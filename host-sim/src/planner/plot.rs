@@ -43,33 +43,30 @@ pub fn speed_profile_figure(
             feed.push((w[1].s_mm, f));
         }
     }
-    let speed: Vec<(f64, f64)> = run
-        .ticks
+    // From the record: every tick, or each stretch's extremes on a long
+    // run (both what `thin` keeps of the whole series).
+    let buckets = run.trace.buckets();
+    let speed: Vec<(f64, f64)> = buckets
         .iter()
-        .map(|t| (t.s_mm, per_min(t.speed_mm_per_s)))
+        .flat_map(|b| b.speed.in_order())
+        .map(|(s, v)| (s, per_min(v)))
         .collect();
-    let pos = run.commanded();
-    let ts = run.ts_s;
     let axes = ["X", "Y", "Z"];
     let colours = [
         RGBColor(31, 119, 180),
         RGBColor(214, 39, 40),
         RGBColor(44, 160, 44),
     ];
-    let moving: Vec<usize> = (0..3)
-        .filter(|&a| pos.iter().any(|p| (p[a] - pos[0][a]).abs() > 1e-9))
-        .collect();
+    let moving: Vec<usize> = (0..3).filter(|&a| run.trace.moved(a)).collect();
     let acc: Vec<_> = moving
         .iter()
         .map(|&a| {
             let lim = settings.axis_accel_max_mm_per_s2[a] as f64;
-            let xy: Vec<(f64, f64)> = pos
-                .windows(3)
-                .zip(&run.ticks)
-                .map(|(w, t)| {
-                    let acc = (w[2][a] - 2.0 * w[1][a] + w[0][a]) / (ts * ts);
-                    (t.s_mm, acc / lim)
-                })
+            let xy: Vec<(f64, f64)> = buckets
+                .iter()
+                .filter_map(|b| b.axis_accel.as_ref())
+                .flat_map(|e| e[a].in_order())
+                .map(|(s, acc)| (s, acc / lim))
                 .collect();
             (format!("{} / {lim} mm/s²", axes[a]), colours[a], thin(&xy))
         })
