@@ -410,6 +410,8 @@ pub struct Connection {
     client: Client,
     bad_frames: u32,
     bytes_sent: u64,
+    /// Nothing was written yet.
+    fresh: bool,
 }
 
 impl Connection {
@@ -439,6 +441,7 @@ impl Connection {
             client: Client::new(),
             bad_frames: 0,
             bytes_sent: 0,
+            fresh: true,
         }
     }
 
@@ -471,8 +474,17 @@ impl Connection {
         self.bytes_sent
     }
 
-    /// Send raw bytes.
+    /// Send raw bytes. The first write starts with a delimiter: whatever
+    /// an earlier host left unfinished on the wire (a frame cut short,
+    /// line noise without a delimiter) ends there, as one bad frame, and
+    /// the first frame of this connection decodes.
     pub fn send_raw(&mut self, bytes: &[u8]) -> Result<(), LinkError> {
+        if core::mem::take(&mut self.fresh) {
+            self.bytes_sent += 1;
+            self.writer
+                .write_all(&[crate::DELIMITER])
+                .map_err(LinkError::Io)?;
+        }
         self.bytes_sent += bytes.len() as u64;
         self.writer.write_all(bytes).map_err(LinkError::Io)?;
         self.writer.flush().map_err(LinkError::Io)
@@ -867,5 +879,35 @@ mod tests {
         }
         conn.flush(Duration::from_secs(10), |_| {}).unwrap();
         assert_eq!(dev.join().unwrap(), (0..6).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn a_connection_ends_what_an_earlier_host_left_on_the_wire_first() {
+        let (a, mut b) = std::os::unix::net::UnixStream::pair().unwrap();
+        let end = a.try_clone().unwrap();
+        let mut conn = Connection::new(Box::new(a.try_clone().unwrap()), Box::new(a));
+        conn.send(&HostMsg::StatusQuery).unwrap();
+        conn.send(&HostMsg::StatusQuery).unwrap();
+        end.shutdown(std::net::Shutdown::Both).unwrap();
+        let mut wire = Vec::new();
+        b.read_to_end(&mut wire).unwrap();
+        assert_eq!(wire[0], crate::DELIMITER, "{wire:?}");
+        assert_eq!(wire.iter().filter(|&&x| x == crate::DELIMITER).count(), 3);
+        // Noise without a delimiter before it: one bad frame, then the
+        // status query decodes.
+        let mut r = FrameReader::new();
+        let noisy: Vec<Option<Result<HostMsg, ErrorCode>>> = [0x55u8; 600]
+            .iter()
+            .chain(&wire)
+            .filter_map(|x| r.push::<HostMsg>(*x).map(Some))
+            .collect();
+        assert_eq!(
+            noisy,
+            vec![
+                Some(Err(ErrorCode::TooLong)),
+                Some(Ok(HostMsg::StatusQuery)),
+                Some(Ok(HostMsg::StatusQuery))
+            ]
+        );
     }
 }

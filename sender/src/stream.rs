@@ -326,6 +326,10 @@ pub struct Outcome {
 /// tool that waits for it).
 const SCHEDULER_DELAY_POINTS: usize = controller::settings::Sched::LATENCY + 1;
 
+/// Blocks behind the planner's point that the tool may still be on (the
+/// setpoint ring's ticks at full feed over the shortest blocks).
+const BLOCKS_BEHIND: usize = 64;
+
 /// What of the program is queued to the link client.
 #[derive(Clone, Copy, Debug, Default)]
 struct Queued {
@@ -730,6 +734,8 @@ struct Run<'a> {
     waiting_on: Option<MachineCmd>,
     /// Program time to each point (s at 100 %: `Program::cum_time_s`).
     cum_s: Vec<f64>,
+    /// The most of the path done so far: mm, and s of the program.
+    progress_along: (f64, f64),
     /// What is queued so far.
     ahead: Queued,
 }
@@ -740,7 +746,7 @@ impl<'a> Run<'a> {
         let host = program.host_schedule(opts.config);
         let feeds = program.feeds_by_point(&host);
         let cum_s = program.cum_time_s(&feeds, feed_max);
-        let eta = Eta::new(cum_s.clone());
+        let eta = Eta::new(cum_s.last().copied().unwrap_or(0.0));
         let items = program.items();
         // The point count each machine command should find its path at:
         // the points since the previous one (none: the same path).
@@ -788,6 +794,7 @@ impl<'a> Run<'a> {
             progress: 0,
             waiting_on: None,
             cum_s,
+            progress_along: (0.0, 0.0),
             ahead: Queued::default(),
         }
     }
@@ -850,6 +857,55 @@ impl<'a> Run<'a> {
         let after_end = self.end_seq.wrapping_add(1);
         let received = st.next_seq.wrapping_sub(after_end) as i32 >= 0;
         received && queued(st, self.credit_size) == 0 && st.points_held == 0
+    }
+
+    /// Where the tool is along the program, from the controller's
+    /// position: the path length (mm) and the program's time (s at
+    /// 100 %) to it, between points too. The tool is on one of the blocks
+    /// just behind the point the planner reached (it runs a few ticks
+    /// ahead, which may span many short blocks): the nearest of those
+    /// to the position, the latest of equally near ones.
+    fn along(&self, st: &Status) -> (f64, f64) {
+        let r = match self.reached(st) {
+            Some(r) if r > 0 => r as usize,
+            _ => return (0.0, 0.0),
+        };
+        let p = &self.program.points;
+        let pos = st.pos_mm.map(bits_f64);
+        let mut best: Option<(f64, usize, f64)> = None;
+        let last = (r + 1).min(p.len().saturating_sub(1));
+        for k in r.saturating_sub(BLOCKS_BEHIND).max(1)..=last {
+            let (Some(a), Some(b)) = (p.get(k - 1), p.get(k)) else {
+                continue;
+            };
+            let (a, b) = (a.pos.to_f64(), b.pos.to_f64());
+            let ab = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+            let l2: f64 = ab.iter().map(|x| x * x).sum();
+            let ap = [pos[0] - a[0], pos[1] - a[1], pos[2] - a[2]];
+            let frac = if l2 > 0.0 {
+                ((0..3).map(|i| ap[i] * ab[i]).sum::<f64>() / l2).clamp(0.0, 1.0)
+            } else {
+                1.0
+            };
+            let d2: f64 = (0..3).map(|i| (ap[i] - frac * ab[i]).powi(2)).sum();
+            if best.is_none_or(|(bd2, _, _)| d2 <= bd2 + 1e-12) {
+                best = Some((d2, k, frac));
+            }
+        }
+        let Some((_, k, frac)) = best else {
+            return (
+                self.program.length_to_mm(r - 1),
+                self.cum_s.get(r - 1).copied().unwrap_or(0.0),
+            );
+        };
+        let lerp = |v0: f64, v1: f64| v0 + frac * (v1 - v0);
+        let mm = lerp(
+            self.program.length_to_mm(k - 1),
+            self.program.length_to_mm(k),
+        );
+        let t0 = self.cum_s.get(k - 1).copied().unwrap_or(0.0);
+        let t1 = self.cum_s.get(k).copied().unwrap_or(t0);
+        (mm, lerp(t0, t1))
     }
 
     /// The item with sequence number `seq` and its index.
@@ -917,12 +973,16 @@ impl<'a> Run<'a> {
             credit,
             reached,
             points: self.program.len() as u32,
-            done_mm: match r {
-                0 => 0.0,
-                r => self.program.length_to_mm(r as usize - 1),
+            done_mm: if r == 0 {
+                0.0
+            } else {
+                self.along(&st).0.max(self.progress_along.0)
             },
             total_mm: self.program.length_mm(),
-            eta: reached.map(|r| self.eta.left(r, st.override_percent.max(1))),
+            eta: reached.map(|_| {
+                let done_s = self.along(&st).1.max(self.progress_along.1);
+                self.eta.left(done_s, st.override_percent.max(1))
+            }),
             elapsed: self.t_start.elapsed(),
             hold_asked: self.operator.hold,
             stopping,
@@ -1262,8 +1322,13 @@ impl<'a> Run<'a> {
                 let counts = matches!(st.motion, Motion::Running | Motion::Starved);
                 let t = self.t_start.elapsed().as_secs_f64();
                 let r = self.reached(&st).unwrap_or(0);
-                self.eta.update(t, r, st.override_percent, counts);
+                let (done_mm, done_s) = self.along(&st);
+                self.eta.update(t, done_s, st.override_percent, counts);
                 self.progress = self.progress.max(r);
+                self.progress_along = (
+                    self.progress_along.0.max(done_mm),
+                    self.progress_along.1.max(done_s),
+                );
             }
             DeviceMsg::Error { code, expected_seq } => {
                 self.summary.refusals += 1;
@@ -1615,6 +1680,33 @@ mod tests {
         r.on_message(&DeviceMsg::Status(done), None).unwrap();
         assert_eq!(r.reached(&done), Some(3));
         assert_eq!(r.view_of(done, 0, false).waiting, None);
+    }
+
+    #[test]
+    fn progress_and_eta_follow_the_tool_along_a_long_line() {
+        let dir = std::env::temp_dir().join(format!("sender-line-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let f = dir.join("line.ngc");
+        // 100 mm at F600: 10 s.
+        std::fs::write(&f, "G21 G90\nG1 X100 F600\n").unwrap();
+        let p = crate::program::load(&f.to_string_lossy(), &SimConfig::default()).unwrap();
+        std::fs::remove_dir_all(&dir).ok();
+        let o = Options::new(crate::program::scheduler_config(3000.0, 60.0).unwrap());
+        let mut r = run(&p, &o);
+        let at = |x: f64| Status {
+            point_reached: 1,
+            motion: Motion::Running,
+            override_percent: 100,
+            pos_mm: [(x * 4294967296.0) as i64, 0, 0],
+            ..Status::default()
+        };
+        for (x, left_s) in [(25.0, 7.5), (50.0, 5.0), (90.0, 1.0)] {
+            r.on_message(&DeviceMsg::Status(at(x)), None).unwrap();
+            let v = r.view_of(at(x), 0, false);
+            assert!((v.done_mm - x).abs() < 1e-6, "{x}: {}", v.done_mm);
+            let eta = v.eta.unwrap().as_secs_f64();
+            assert!((eta - left_s).abs() < 1e-3, "{x}: ETA {eta}");
+        }
     }
 
     #[test]

@@ -130,20 +130,22 @@ impl View {
     }
 }
 
-/// The time left, from the host's schedule: the remaining blocks at their
-/// scheduled feeds (capped to the machine's), divided by the override,
-/// plus the dwells left, times how much slower than that estimate the run
-/// has been so far (the estimate has no acceleration; the factor learns it).
+/// The time left, from the host's schedule: the program's time (the
+/// blocks at their scheduled feeds, capped to the machine's, and the
+/// dwells) from where the tool is to the end, divided by the override,
+/// times how much slower than that estimate the run has been so far (the
+/// estimate has no acceleration; the factor learns it). Where the tool is
+/// is the program's time done, `done_s`: to its position along the path,
+/// between points too.
 #[derive(Clone, Debug)]
 pub struct Eta {
-    /// Cumulative time to each point index at 100 % (see
-    /// `Program::cum_time_s`), s.
-    cum_s: Vec<f64>,
+    /// The program's time at 100 %, s.
+    total_s: f64,
     /// The estimate for what was done, at the overrides in force, s.
     est_done_s: f64,
     /// The time it took (moving or starved, not held), s.
     actual_s: f64,
-    last: Option<(f64, u32)>,
+    last: Option<(f64, f64)>,
 }
 
 /// Estimated seconds of progress needed before the run's own pace is
@@ -151,40 +153,27 @@ pub struct Eta {
 const LEARN_AFTER_S: f64 = 0.5;
 
 impl Eta {
-    /// For a program with these cumulative block times.
-    pub fn new(cum_s: Vec<f64>) -> Self {
+    /// For a program of `total_s` at 100 % (`Program::cum_time_s`' last).
+    pub fn new(total_s: f64) -> Self {
         Eta {
-            cum_s,
+            total_s,
             est_done_s: 0.0,
             actual_s: 0.0,
             last: None,
         }
     }
 
-    fn at(&self, reached: u32) -> f64 {
-        // Point `reached` (from 1) is index `reached - 1`.
-        match (reached as usize).checked_sub(1) {
-            None => 0.0,
-            Some(i) => self
-                .cum_s
-                .get(i)
-                .or(self.cum_s.last())
-                .copied()
-                .unwrap_or(0.0),
-        }
-    }
-
-    /// A status at `t_s` (s since the start): `reached` points done, with
-    /// this override, moving or not (held).
-    pub fn update(&mut self, t_s: f64, reached: u32, override_percent: u16, counts: bool) {
-        if let Some((t0, r0)) = self.last {
+    /// A status at `t_s` (s since the start): `done_s` of the program
+    /// done, with this override, moving or not (held).
+    pub fn update(&mut self, t_s: f64, done_s: f64, override_percent: u16, counts: bool) {
+        if let Some((t0, d0)) = self.last {
             if counts {
                 let pct = override_percent.max(1) as f64 / 100.0;
-                self.est_done_s += (self.at(reached) - self.at(r0)).max(0.0) / pct;
+                self.est_done_s += (done_s - d0).max(0.0) / pct;
                 self.actual_s += (t_s - t0).max(0.0);
             }
         }
-        self.last = Some((t_s, reached));
+        self.last = Some((t_s, done_s));
     }
 
     /// How much slower than the estimate the run is.
@@ -196,10 +185,9 @@ impl Eta {
         }
     }
 
-    /// Time left with `reached` points done at this override.
-    pub fn left(&self, reached: u32, override_percent: u16) -> Duration {
-        let total = self.cum_s.last().copied().unwrap_or(0.0);
-        let rest = (total - self.at(reached)).max(0.0);
+    /// Time left with `done_s` of the program done, at this override.
+    pub fn left(&self, done_s: f64, override_percent: u16) -> Duration {
+        let rest = (self.total_s - done_s).max(0.0);
         let pct = override_percent.max(1) as f64 / 100.0;
         Duration::from_secs_f64((rest / pct * self.pace()).min(1e7))
     }
@@ -282,22 +270,24 @@ mod tests {
 
     #[test]
     fn the_eta_follows_the_override_and_learns_the_pace() {
-        // Ten blocks of 1 s each at 100 %.
-        let mut e = Eta::new((1..=10).map(|i| i as f64).collect());
-        assert_eq!(e.left(0, 100), Duration::from_secs(10));
-        assert_eq!(e.left(5, 100), Duration::from_secs(5));
-        assert_eq!(e.left(5, 50), Duration::from_secs(10));
-        // The run takes twice the estimate: 2 points in 4 s.
-        e.update(0.0, 0, 100, true);
-        e.update(4.0, 2, 100, true);
+        // Ten seconds of program at 100 %.
+        let mut e = Eta::new(10.0);
+        assert_eq!(e.left(0.0, 100), Duration::from_secs(10));
+        assert_eq!(e.left(5.0, 100), Duration::from_secs(5));
+        assert_eq!(e.left(5.0, 50), Duration::from_secs(10));
+        // Between points: half a second more done, half a second less.
+        assert_eq!(e.left(5.5, 100), Duration::from_millis(4500));
+        // The run takes twice the estimate: 2 s of program in 4 s.
+        e.update(0.0, 0.0, 100, true);
+        e.update(4.0, 2.0, 100, true);
         assert!((e.pace() - 2.0).abs() < 1e-9);
-        assert_eq!(e.left(2, 100), Duration::from_secs(16));
+        assert_eq!(e.left(2.0, 100), Duration::from_secs(16));
         // A hold does not count.
-        e.update(100.0, 2, 100, false);
+        e.update(100.0, 2.0, 100, false);
         assert!((e.pace() - 2.0).abs() < 1e-9);
-        // At 200 % the estimate halves: 2 more points in 2 s is the same pace.
-        e.update(102.0, 4, 200, true);
+        // At 200 % the estimate halves: 2 s more in 2 s is the same pace.
+        e.update(102.0, 4.0, 200, true);
         assert!((e.pace() - 2.0).abs() < 1e-9, "{}", e.pace());
-        assert_eq!(e.left(10, 100), Duration::ZERO);
+        assert_eq!(e.left(10.0, 100), Duration::ZERO);
     }
 }

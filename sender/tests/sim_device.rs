@@ -916,3 +916,26 @@ fn a_simulation_far_faster_than_the_host_raises_no_false_link_loss() {
         out.summary
     );
 }
+
+/// Line noise without a delimiter from an earlier host (100 kB), then a
+/// new connection: the controller ends the noise at the connection's
+/// first delimiter and answers its first status query (not only a
+/// retry), and keeps answering.
+#[test]
+fn a_connection_after_noise_without_a_delimiter_is_answered_at_once() {
+    let h = sim::start(1.0).unwrap();
+    let mut noisy = h.connect().unwrap();
+    noisy.write_all(&vec![0x55u8; 100_000]).unwrap();
+    std::thread::sleep(Duration::from_millis(200));
+    let mut s = session(&h, Recorder::none());
+    for _ in 0..3 {
+        let t = Instant::now();
+        let st = s.status_within(T, |_| {}).unwrap();
+        assert!(
+            t.elapsed() < Duration::from_millis(400),
+            "the first query is answered: {:?}",
+            t.elapsed()
+        );
+        assert!(st.bad_frames >= 1, "the noise was one bad frame: {st:?}");
+    }
+}
