@@ -1,0 +1,260 @@
+// cncjs (its server, headless) driving `fuzzy-send serve` through its pty,
+// as its web UI would: over cncjs's socket.io API.
+//
+// node cncjs.js --cncjs http://127.0.0.1:PORT --port /path/to/pty
+//
+// Each step acts through cncjs and checks the controller's side through the
+// Grbl status reports and `$#` answers cncjs relays. Exit 0: every step
+// passed.
+'use strict';
+
+const http = require('http');
+const io = require('socket.io-client');
+
+const args = {};
+for (let i = 2; i + 1 < process.argv.length; i += 2) {
+  args[process.argv[i].replace(/^--/, '')] = process.argv[i + 1];
+}
+const URL_ = args.cncjs;
+const PORT = args.port;
+if (!URL_ || !PORT) {
+  console.error('usage: node cncjs.js --cncjs http://127.0.0.1:PORT --port /path/to/pty');
+  process.exit(2);
+}
+
+function log(...a) {
+  console.log('[cncjs]', ...a);
+}
+
+function signin() {
+  const u = new URL('/api/signin', URL_);
+  return new Promise((resolve, reject) => {
+    const req = http.request(u, { method: 'POST' }, (res) => {
+      let body = '';
+      res.on('data', (d) => { body += d; });
+      res.on('end', () => {
+        try {
+          resolve(JSON.parse(body).token);
+        } catch (e) {
+          reject(new Error(`signin: ${res.statusCode} ${body}`));
+        }
+      });
+    });
+    req.on('error', reject);
+    req.end();
+  });
+}
+
+// What cncjs has told us so far.
+const seen = {
+  state: null, // controller:state's status
+  stateAt: 0, // when it last changed
+  settings: null, // controller:settings (parameters from `$#`)
+  workflow: 'idle',
+  sender: null,
+  reads: [], // serialport:read lines
+  errors: [], // error: and ALARM: lines
+  spindleMax: 0, // the highest spindle speed a status report showed
+};
+
+function sleep(ms) {
+  return new Promise((r) => setTimeout(r, ms));
+}
+
+async function until(what, timeoutMs, pred) {
+  const t0 = Date.now();
+  for (;;) {
+    const v = pred();
+    if (v) return v;
+    if (Date.now() - t0 > timeoutMs) {
+      throw new Error(`timed out waiting for ${what}; last status ${JSON.stringify(seen.state)}`);
+    }
+    await sleep(20);
+  }
+}
+
+function pos(p) {
+  return `${p.x},${p.y},${p.z}`;
+}
+
+// Idle, and no status change for `quietMs` (cncjs relays a status only
+// when it differs): the machine has stopped.
+async function settled(what, timeoutMs = 20000, quietMs = 800) {
+  await until(what, timeoutMs, () => seen.state
+    && seen.state.activeState === 'Idle'
+    && Date.now() - seen.stateAt > quietMs);
+  return seen.state;
+}
+
+function expectPos(what, got, want) {
+  if (pos(got) !== want) throw new Error(`${what}: MPos ${pos(got)}, want ${want}`);
+  log(`${what}: MPos ${pos(got)}`);
+}
+
+function noErrors(what) {
+  if (seen.errors.length) {
+    throw new Error(`${what}: cncjs relayed ${JSON.stringify(seen.errors)}`);
+  }
+}
+
+async function main() {
+  // The server takes a few seconds to start.
+  let token;
+  for (let i = 0; ; i++) {
+    try {
+      token = await signin();
+      break;
+    } catch (e) {
+      if (i >= 300) throw e;
+      await sleep(100);
+    }
+  }
+  const socket = io.connect(URL_, { query: `token=${token}`, reconnection: false });
+  const emit = (...a) => socket.emit(...a);
+  const command = (...a) => socket.emit('command', PORT, ...a);
+
+  socket.on('controller:state', (type, state) => {
+    if (state && state.status) {
+      seen.state = state.status;
+      seen.spindleMax = Math.max(seen.spindleMax, Number(state.status.spindle) || 0);
+      seen.stateAt = Date.now();
+    }
+  });
+  socket.on('controller:settings', (type, settings) => { seen.settings = settings; });
+  socket.on('workflow:state', (s) => { seen.workflow = s; });
+  socket.on('sender:status', (s) => { seen.sender = s; });
+  socket.on('serialport:read', (line) => {
+    seen.reads.push(line);
+    if (/^(error:|ALARM:)/.test(line)) seen.errors.push(line);
+  });
+  socket.on('serialport:error', (e) => { seen.errors.push(`serialport:error ${JSON.stringify(e)}`); });
+
+  await new Promise((resolve, reject) => {
+    socket.on('startup', resolve);
+    socket.on('connect_error', reject);
+    socket.on('error', reject);
+  });
+  await new Promise((resolve, reject) => {
+    emit('open', PORT, { controllerType: 'Grbl', baudrate: 115200, rtscts: false }, (err) => {
+      if (err) reject(new Error(`open ${PORT}: ${JSON.stringify(err)}`));
+      else resolve();
+    });
+  });
+  log(`opened ${PORT}`);
+  const start = await settled('a first status');
+  log(`connected: ${start.activeState} at ${pos(start.mpos)}`);
+
+  // Load a program, start it, wait for cncjs to end the job (it does once
+  // its sender is done and the machine has been idle for a while).
+  async function runJob(name, gcode, during) {
+    await new Promise((resolve, reject) => {
+      command('gcode:load', name, gcode, {}, (err) => (err ? reject(new Error(`load: ${err}`)) : resolve()));
+    });
+    seen.workflow = 'idle';
+    command('gcode:start');
+    await until(`${name} to start`, 5000, () => seen.workflow === 'running');
+    if (during) await during();
+    await until(`${name} to end`, 60000, () => seen.workflow === 'idle');
+    const s = seen.sender;
+    if (!s || s.received !== s.total || s.sent !== s.total) {
+      throw new Error(`${name}: sender ${JSON.stringify(s)}`);
+    }
+    log(`${name}: ${s.total} lines sent and answered in ${s.elapsedTime} ms`);
+    return settled(`${name} at rest`);
+  }
+
+  const steps = [
+    ['a job: square, arc, dwell, spindle', async () => {
+      const gcode = [
+        'G21 G90 G94',
+        'G0 X0 Y0 Z1',
+        'M3 S1000',
+        'G4 P0.2',
+        'G1 Z-0.5 F300',
+        'G1 X10 F1000',
+        'G1 Y10',
+        'G3 X0 Y10 I-5 J0',
+        'G1 Y0',
+        'G0 Z1',
+        'M5',
+        'G0 X2.5 Y3.25',
+        'M30',
+      ].join('\n');
+      seen.spindleMax = 0;
+      const s = await runJob('square.nc', gcode);
+      expectPos('the end', s.mpos, '2.500,3.250,1.000');
+      if (seen.spindleMax !== 1000 || Number(s.spindle) !== 0) {
+        throw new Error(`spindle: at most ${seen.spindleMax} rpm during the job, ${s.spindle} at its end`);
+      }
+    }],
+    ['feed hold and cycle start in a longer job', async () => {
+      const lines = ['G21 G90 G1 F1000'];
+      for (let i = 0; i < 6; i++) lines.push(`X${i % 2 ? 2 : 30} Y${4 + i}`);
+      lines.push('G0 X4 Y6 Z2');
+      const s = await runJob('zigzag.nc', lines.join('\n'), async () => {
+        await until('motion', 10000, () => seen.state.activeState === 'Run' && seen.state.mpos.x !== '2.500');
+        command('feedhold');
+        const held = await until('Hold', 5000, () => seen.state.activeState === 'Hold' && seen.state);
+        await until('the hold to complete', 5000, () => seen.state.subState === 0 || seen.state.subState === '0');
+        const at = pos(seen.state.mpos);
+        await sleep(1000);
+        if (pos(seen.state.mpos) !== at || seen.state.activeState !== 'Hold') {
+          throw new Error(`moved while held: ${at} then ${pos(seen.state.mpos)} ${seen.state.activeState}`);
+        }
+        log(`held at ${at} (${held.activeState}:${seen.state.subState})`);
+        command('cyclestart');
+        await until('Run again', 5000, () => seen.state.activeState === 'Run');
+      });
+      expectPos('the end', s.mpos, '4.000,6.000,2.000');
+    }],
+    ['a jog', async () => {
+      const before = seen.state.mpos;
+      command('gcode', '$J=G91 X5 F1000');
+      await until('the jog', 10000, () => seen.state.mpos.x !== before.x);
+      const s = await settled('the jog at rest');
+      expectPos('after $J=G91 X5', s.mpos, '9.000,6.000,2.000');
+    }],
+    ['work zero on Z (G10 L20 P1 Z0), read back by $#', async () => {
+      command('gcode', 'G10 L20 P1 Z0');
+      command('gcode', '$#');
+      const g54 = await until('[G54:] from $#', 5000, () => {
+        const p = seen.settings && seen.settings.parameters && seen.settings.parameters.G54;
+        return p && Number(p.z) !== 0 && p;
+      });
+      if (Number(g54.z) !== 2 || Number(g54.x) !== 0 || Number(g54.y) !== 0) {
+        throw new Error(`G54 ${JSON.stringify(g54)}, want 0,0,2`);
+      }
+      const s = await until('WCO in a status report', 5000, () => seen.state.wpos.z === '0.000' && seen.state);
+      log(`G54 ${g54.x},${g54.y},${g54.z}; WPos ${pos(s.wpos)}, MPos ${pos(s.mpos)}`);
+      expectPos('work zero', s.mpos, '9.000,6.000,2.000');
+    }],
+    // A probe step (G38.2 via cncjs's probe commands, [PRB:] read back)
+    // goes here once the controller has a probe input: it refuses G38.x.
+  ];
+
+  for (const [name, run] of steps) {
+    const t0 = Date.now();
+    log(`-- ${name}`);
+    await run();
+    noErrors(name);
+    log(`ok: ${name} (${Date.now() - t0} ms)`);
+  }
+
+  await new Promise((resolve) => emit('close', PORT, resolve));
+  socket.close();
+}
+
+const deadline = setTimeout(() => {
+  console.error('[cncjs] FAIL: overall deadline');
+  process.exit(1);
+}, Number(args.deadline || 120) * 1000);
+
+main().then(() => {
+  clearTimeout(deadline);
+  log('PASS');
+  process.exit(0);
+}, (e) => {
+  console.error(`[cncjs] FAIL: ${e.message}`);
+  console.error(`[cncjs] last lines: ${JSON.stringify(seen.reads.slice(-15))}`);
+  process.exit(1);
+});

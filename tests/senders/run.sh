@@ -1,0 +1,137 @@
+#!/usr/bin/env bash
+# Real Grbl senders against `fuzzy-send serve` on the simulated controller:
+# cncjs's server run headless and driven over its socket.io API (cncjs.js,
+# through the pty), bCNC's Sender and GRBL1 classes without their window
+# (bcnc.py, over TCP). Each sender gets a fresh `serve --sim`.
+#
+#   tests/senders/run.sh [cncjs] [bcnc]   # default: both, one after the other
+#   tests/senders/run.sh --install        # only install them
+#
+# Installed into $FUZZY_SENDERS_CACHE (default target/senders/): cncjs by
+# `npm ci` from package-lock.json, bCNC into a venv from requirements.txt,
+# each again only when that file changes. Needs node >= 18 with npm, and
+# python3 with venv and tkinter (scripts/setup.sh --tests installs them).
+# $FUZZY_SEND: the fuzzy-send binary (default: built with --release).
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+root=$(cd "$here/../.." && pwd)
+cache=${FUZZY_SENDERS_CACHE:-$root/target/senders}
+sim_speed=5
+
+log() { printf '[senders] %s\n' "$*" >&2; }
+
+install_cncjs() {
+    local dir=$cache/node
+    if cmp -s "$here/package-lock.json" "$dir/.installed-lock"; then return; fi
+    log "npm ci (cncjs, socket.io-client) into $dir"
+    rm -rf "$dir"
+    mkdir -p "$dir"
+    cp "$here/package.json" "$here/package-lock.json" "$dir/"
+    # No install scripts: serialport's binding is prebuilt in its package.
+    (cd "$dir" && npm ci --ignore-scripts --no-audit --no-fund --loglevel=error)
+    cp "$here/package-lock.json" "$dir/.installed-lock"
+}
+
+install_bcnc() {
+    local venv=$cache/bcnc-venv
+    if cmp -s "$here/requirements.txt" "$venv/.installed-requirements"; then return; fi
+    log "pip install bCNC into $venv"
+    rm -rf "$venv"
+    python3 -m venv "$venv"
+    "$venv/bin/pip" install -q --disable-pip-version-check --no-deps -r "$here/requirements.txt"
+    cp "$here/requirements.txt" "$venv/.installed-requirements"
+}
+
+if [ "${1:-}" = "--install" ]; then
+    install_cncjs
+    install_bcnc
+    exit 0
+fi
+
+which=("$@")
+if [ ${#which[@]} -eq 0 ]; then which=(cncjs bcnc); fi
+
+if [ -z "${FUZZY_SEND:-}" ]; then
+    log "cargo build --release -p sender"
+    (cd "$root" && cargo build -q --release -p sender)
+    FUZZY_SEND=${CARGO_TARGET_DIR:-$root/target}/release/fuzzy-send
+fi
+
+work=$(mktemp -d "${TMPDIR:-/tmp}/fuzzy-senders.XXXXXX")
+pids=()
+cleanup() {
+    # serve on SIGINT removes its pty link; the rest by their ids.
+    for p in "${pids[@]}"; do kill -INT "$p" 2>/dev/null || true; done
+    for p in "${pids[@]}"; do wait "$p" 2>/dev/null || true; done
+    rm -rf "$work"
+}
+trap cleanup EXIT
+
+# Start `fuzzy-send serve` with these options; wait for its "Grbl 1.1
+# front on" lines (its log: $work/serve-$name.log).
+serve() {
+    local name=$1
+    shift
+    local out=$work/serve-$name.log
+    "$FUZZY_SEND" --sim="$sim_speed" serve "$@" >"$out" 2>&1 &
+    pids+=($!)
+    for _ in $(seq 300); do
+        if grep -q "connect a sender" "$out"; then return; fi
+        if ! kill -0 "${pids[-1]}" 2>/dev/null; then break; fi
+        sleep 0.1
+    done
+    log "fuzzy-send serve did not start:"
+    cat "$out" >&2
+    return 1
+}
+
+free_port() {
+    python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'
+}
+
+failed=0
+show_logs() {
+    for f in "$work"/*.log; do
+        log "---- $(basename "$f")"
+        tail -n 40 "$f" >&2
+    done
+}
+
+run_cncjs() {
+    install_cncjs
+    local pty=$work/ttyFUZZY
+    serve cncjs --pty-link "$pty"
+    local http
+    http=$(free_port)
+    echo '{}' >"$work/cncrc"
+    mkdir -p "$work/home"
+    HOME=$work/home "$cache/node/node_modules/.bin/cncjs" -H 127.0.0.1 -p "$http" \
+        -c "$work/cncrc" >"$work/cncjs-server.log" 2>&1 &
+    pids+=($!)
+    NODE_PATH=$cache/node/node_modules timeout 180 node "$here/cncjs.js" \
+        --cncjs "http://127.0.0.1:$http" --port "$pty"
+}
+
+run_bcnc() {
+    install_bcnc
+    serve bcnc --no-pty --grbl-tcp 0
+    local port
+    port=$(sed -n 's/.*Grbl 1.1 front on tcp 127.0.0.1:\([0-9]*\).*/\1/p' "$work/serve-bcnc.log")
+    mkdir -p "$work/home"
+    HOME=$work/home timeout 120 "$cache/bcnc-venv/bin/python" "$here/bcnc.py" \
+        --url "socket://127.0.0.1:$port"
+}
+
+for w in "${which[@]}"; do
+    t0=$(date +%s.%N)
+    case $w in
+        cncjs) run_cncjs || failed=1 ;;
+        bcnc) run_bcnc || failed=1 ;;
+        *) log "unknown sender $w (cncjs, bcnc)"; exit 2 ;;
+    esac
+    log "$w took $(python3 -c "import time; print(f'{time.time() - $t0:.1f}')") s"
+    if [ "$failed" = 1 ]; then
+        show_logs
+        exit 1
+    fi
+done
