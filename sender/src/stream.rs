@@ -1689,7 +1689,7 @@ mod tests {
         let f = dir.join("line.ngc");
         // 100 mm at F600: 10 s.
         std::fs::write(&f, "G21 G90\nG1 X100 F600\n").unwrap();
-        let p = crate::program::load(&f.to_string_lossy(), &SimConfig::default()).unwrap();
+        let p = crate::program::load(&f.to_string_lossy(), &GcodeSettings::default()).unwrap();
         std::fs::remove_dir_all(&dir).ok();
         let o = Options::new(crate::program::scheduler_config(3000.0, 60.0).unwrap());
         let mut r = run(&p, &o);
