@@ -8,7 +8,7 @@ use anyhow::{bail, Result};
 use crate::text::short;
 
 use super::arc::{self, Centre, Plane};
-use crate::toolpath::{MachineEvent, SpindleDir};
+use crate::toolpath::{MachineEvent, PathMode, SpindleDir};
 
 /// One piece of the interpreter's output, in program order.
 #[derive(Clone, Debug, PartialEq)]
@@ -50,6 +50,7 @@ pub struct Sink {
     rpm: f64,
     flood: bool,
     mist: bool,
+    path: PathMode,
     /// Points handed out and dropped before `points[0]`.
     base: usize,
     /// Points of `points` already handed out.
@@ -70,14 +71,16 @@ impl Sink {
             rpm: 0.0,
             flood: false,
             mist: false,
+            path: PathMode::default(),
             base: 0,
             sent: 0,
         }
     }
 
-    /// Spindle and coolant off (a program's end), as events only for what
-    /// is on.
+    /// Spindle and coolant off and the path control back to G64 (a
+    /// program's end), as events only for what is not so already.
     pub fn all_off(&mut self, line: u32) {
+        self.path_control(line, PathMode::default());
         if self.spindle != SpindleDir::Off {
             self.m_word(line, 5, self.rpm);
         }
@@ -168,6 +171,15 @@ impl Sink {
     pub fn dwell(&mut self, line: u32, s: f64) {
         if s > 0.0 {
             self.event(line, MachineEvent::Dwell { s });
+        }
+    }
+
+    /// The path control of block `line` (G61, G61.1, G64), an event before
+    /// its motion where it changes.
+    pub fn path_control(&mut self, line: u32, mode: PathMode) {
+        if mode != self.path {
+            self.path = mode;
+            self.event(line, MachineEvent::PathControl(mode));
         }
     }
 

@@ -163,11 +163,7 @@ pub fn measure(
         length_mm: run.points.last().map_or(0.0, |p| p.s_mm),
         buffer_points: settings.buffer_points,
         cycle_time_s: run.cycle_time_s(),
-        chord_tolerance_mm: if settings.smoothing_ticks > 1 {
-            2.0 * settings.chord_tolerance_mm
-        } else {
-            settings.chord_tolerance_mm
-        },
+        chord_tolerance_mm: settings.chord_tolerance_mm,
         tangential_limits: [acc_t, jerk_t],
         over_ceiling_mm_per_min: f64::NEG_INFINITY,
         ..Default::default()
@@ -234,7 +230,7 @@ pub fn measure(
     // Chord deviation: vertices strictly between two ticks (with smoothing,
     // the nearest of the moves up to `n − 1` ticks later).
     let pts = &run.points;
-    let lag = usize::from(settings.smoothing_ticks.max(1)) - 1;
+    let lag = usize::from(settings.smoothing().max(1)) - 1;
     let mut j = 0;
     for k in 0..pos.len() - 1 {
         let (s0, s1) = (s[k], s[k + 1]);
@@ -480,10 +476,13 @@ mod tests {
     }
 
     #[test]
-    fn smoothing_keeps_the_limits_and_the_doubled_chord_bound() {
+    fn smoothing_keeps_the_limits_and_the_chord_bound() {
         let path = square();
         let mp = motion_points(&path, &[3000.0; 5], &[]).unwrap();
-        let plain = PlannerSettings::default();
+        let plain = PlannerSettings {
+            smoothing_ticks: 1,
+            ..PlannerSettings::default()
+        };
         let smooth = PlannerSettings {
             smoothing_ticks: 2,
             ..plain.clone()
@@ -501,8 +500,8 @@ mod tests {
             &smooth,
         );
         assert!(f.within_limits(), "{}", text(&f));
-        assert_eq!(f.chord_tolerance_mm, 0.002);
-        assert!(f.chord_deviation_mm <= 0.002 + 1e-9, "{}", text(&f));
+        assert_eq!(f.chord_tolerance_mm, 0.001);
+        assert!(f.chord_deviation_mm <= 0.001 + 1e-9, "{}", text(&f));
         // Four sharp corners between long sides: the blend is held by the
         // tolerance there, so little is gained (the dense paths gain most:
         // fuzzy-core's planner tests); the mean settles a tick later.
