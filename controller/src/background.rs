@@ -55,7 +55,7 @@ use fuzzy_core::planner::{ConfigError, MotionError, MotionState};
 use fuzzy_core::scheduler::SchedulerError;
 use fuzzy_core::units::Point3Mm;
 use heapless::Deque;
-use link::{AlarmCode, DeviceMsg, MachineCmd, StoreResult};
+use link::{AlarmCode, DeviceMsg, MachineCmd, PathControl, StoreResult};
 use rtic_core::Mutex;
 
 use crate::alarm::{GuardConfig, Latch, Phase};
@@ -188,6 +188,10 @@ pub struct Background<'a> {
     latch: &'a Latch,
     config: Config,
     config_version: u32,
+    /// The program's path control in force (G61, G64, G64 P).
+    path: PathControl,
+    /// The path control the planner's last rebuild reported.
+    path_reported: PathControl,
     spindle: Spindle,
     waiting: Option<Waiting>,
     /// No new path before this generated tick (spin-up delay).
@@ -229,6 +233,8 @@ impl<'a> Background<'a> {
             latch,
             config,
             config_version: 0,
+            path: PathControl::Blend,
+            path_reported: PathControl::Blend,
             spindle: Spindle::default(),
             waiting: None,
             hold_until: 0,
@@ -509,10 +515,7 @@ impl<'a> Background<'a> {
         if rebuild {
             // Changes are accepted at rest only: the planner is at rest.
             let here = self.planning.position();
-            match self.planning.reset(config.motion_config(), here) {
-                Ok(input) => report(link, input, notice),
-                Err(e) => notice(Notice::SettingsRefused(e)),
-            }
+            self.rebuild(here, link, notice);
         }
         if link.lock(|l| l.take_save()) {
             let r = io.save(&written);
@@ -555,10 +558,9 @@ impl<'a> Background<'a> {
                 // Stopped without deceleration: the position may be lost.
                 self.homed = 0;
             }
-            match self.planning.reset(self.config.motion_config(), pos) {
-                Ok(input) => report(link, input, notice),
-                Err(e) => notice(Notice::SettingsRefused(e)),
-            }
+            // The program is dropped, its path control with it.
+            self.path = PathControl::Blend;
+            self.rebuild(pos, link, notice);
             let next_seq = link.lock(|l| l.void_all());
             self.post(DeviceMsg::Alarm {
                 code,
@@ -667,10 +669,7 @@ impl<'a> Background<'a> {
         self.latch.set_offset(off);
         self.latch.set_homing(false, None);
         self.homed |= cycle.homed();
-        match self.planning.reset(self.config.motion_config(), home) {
-            Ok(input) => report(link, input, notice),
-            Err(e) => notice(Notice::SettingsRefused(e)),
-        }
+        self.rebuild(home, link, notice);
         self.homing = None;
         self.homing_done = false;
         if self.latch.advance(Phase::Halt, Phase::Hold) {
@@ -739,9 +738,15 @@ impl<'a> Background<'a> {
                     notice(Notice::ReportDropped);
                 }
                 self.abort = None;
-                // As Grbl's soft reset: spindle and coolant off.
+                // As Grbl's soft reset: spindle and coolant off, and the
+                // program's path control dropped.
                 self.spindle.stop();
                 io.outputs(self.spindle.outputs(&self.config));
+                if self.path != PathControl::Blend {
+                    self.path = PathControl::Blend;
+                    let here = self.planning.position();
+                    self.rebuild(here, link, notice);
+                }
                 notice(Notice::Aborted);
                 busy = true;
             }
@@ -831,6 +836,12 @@ impl<'a> Background<'a> {
         }
         let spin_up = self.spindle.apply(w.cmd);
         io.outputs(self.spindle.outputs(&self.config));
+        if let MachineCmd::PathControl(c) = w.cmd {
+            // At rest at the end of the path before it.
+            self.path = c;
+            let here = self.planning.position();
+            self.rebuild(here, link, notice);
+        }
         // The next path waits: a dwell's time (G4, from here at rest), or
         // the spin-up delay after a start or a reversal.
         let wait_ms = match w.cmd {
@@ -850,6 +861,38 @@ impl<'a> Background<'a> {
         });
         self.waiting = None;
         true
+    }
+}
+
+impl Background<'_> {
+    /// The planner's settings: the machine's with the program's path
+    /// control.
+    pub fn motion_config(&self) -> fuzzy_core::planner::MotionConfig {
+        self.config
+            .path_settings(self.path)
+            .apply(self.config.motion_config())
+    }
+
+    /// Rebuild the planner at rest at `pos` with [`Self::motion_config`]:
+    /// reported as `PlanEvent::Reset`, or as `PlanEvent::PathControl`
+    /// where a path control other than G64 is in force or was (the
+    /// replay then takes its settings in place of the machine's).
+    fn rebuild<L: Mutex<T = DeviceLink>>(
+        &mut self,
+        pos: Point3Mm,
+        link: &mut L,
+        notice: &mut impl FnMut(Notice),
+    ) {
+        let settings = self.config.path_settings(self.path);
+        let event = (self.path != PathControl::Blend || self.path_reported != PathControl::Blend)
+            .then(|| settings.event(pos.to_bits()));
+        match self.planning.rebuild(self.motion_config(), pos, event) {
+            Ok(input) => {
+                self.path_reported = self.path;
+                report(link, input, notice)
+            }
+            Err(e) => notice(Notice::SettingsRefused(e)),
+        }
     }
 }
 

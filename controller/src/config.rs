@@ -34,10 +34,12 @@
 use fixed::types::{I16F16, I32F32};
 use fuzzy_core::planner::{ConfigError, MotionConfig};
 use fuzzy_core::units::FeedMmPerMin;
+use link::PathControl;
 
 use crate::settings::{
     AXIS_ACCEL_MM_PER_S2, AXIS_SPEED_MM_PER_MIN, CHORD_NM, FEED_MAX_MM_PER_MIN, JERK_MM_PER_S3,
-    SMOOTHING_TICKS, STEP_CONFIG, STEP_TIMER_HZ, TANGENTIAL_SHARE_PERCENT, TICK_HZ,
+    PATH_TOLERANCE_MAX_NM, SMOOTHING_TICKS, STEP_CONFIG, STEP_TIMER_HZ, TANGENTIAL_SHARE_PERCENT,
+    TICK_HZ,
 };
 use crate::steps::{AxisConfig, StepConfig, StepConfigError, StepSettings, StepsPerMm, Timing};
 
@@ -123,10 +125,11 @@ pub enum Key {
     SpinUp,
     Smoothing,
     LinkSilence,
+    PathToleranceMax,
 }
 
 /// How many settings there are.
-pub const COUNT: usize = 42;
+pub const COUNT: usize = 43;
 
 const fn s(
     id: u16,
@@ -373,10 +376,10 @@ pub const SETTINGS: [SettingInfo; COUNT] = [
     ),
     s(
         208,
-        "corner smoothing: commanded positions averaged over this many ticks (1: off; corners blended within the chord tolerance)",
+        "corner smoothing: commanded positions averaged over this many ticks (1: off; 0: the most that fit the tolerance, tick and acceleration; corners blended within the chord tolerance)",
         "ticks",
         0,
-        (1, 8),
+        (0, 8),
         Apply::AtRest,
     ),
     s(
@@ -385,6 +388,14 @@ pub const SETTINGS: [SettingInfo; COUNT] = [
         "ms",
         0,
         (0, 600_000),
+        Apply::Now,
+    ),
+    s(
+        210,
+        "largest path tolerance a program may set (G64 P)",
+        "nm",
+        0,
+        (1, 1_000_000),
         Apply::Now,
     ),
 ];
@@ -434,6 +445,7 @@ const DEFAULTS: [i64; COUNT] = [
     1000, // spin-up 1 s
     SMOOTHING_TICKS as i64,
     1000, // a feed hold after 1 s of link silence while moving
+    PATH_TOLERANCE_MAX_NM as i64,
 ];
 
 /// The polarity mask of the build-time step settings (`dir`: the
@@ -583,11 +595,43 @@ impl Config {
             axis_accel_max_mm_s2: [Key::AccelX, Key::AccelY, Key::AccelZ]
                 .map(|k| u32_of(self.get(k))),
             jerk_max_mm_s3: u32_of(self.get(Key::Jerk)),
-            chord_tolerance_mm: I32F32::from_bits(
-                (self.get(Key::Chord).clamp(0, 1 << 30) << 32) / 1_000_000,
-            ),
+            chord_tolerance_mm: chord_of_nm(u32_of(self.get(Key::Chord))),
             tangential_share: I16F16::from_bits((share << 16) / 100),
-            smoothing_ticks: self.get(Key::Smoothing).clamp(1, 8) as u8,
+            smoothing_ticks: self.get(Key::Smoothing).clamp(0, 8) as u8,
+            exact_path: false,
+        }
+    }
+
+    /// The planner's settings a program's path control asks for, in place
+    /// of the machine's ([`PathSettings::apply`] to [`Self::motion_config`]):
+    /// G64 the machine's (`$203`, `$208`); G64 P its tolerance, within
+    /// 1 nm and `$210`, with the smoothing `$208` sets if it fits that
+    /// tolerance, else the most that fits; G61 an exact path.
+    pub fn path_settings(&self, control: PathControl) -> PathSettings {
+        let chord_nm = u32_of(self.get(Key::Chord));
+        let smoothing_ticks = self.get(Key::Smoothing).clamp(0, 8) as u8;
+        let machine = PathSettings {
+            chord_nm,
+            smoothing_ticks,
+            exact: false,
+        };
+        match control {
+            PathControl::Blend => machine,
+            PathControl::Tolerance { nm } => {
+                let max = u32_of(self.get(Key::PathToleranceMax)).max(1);
+                let mut p = PathSettings {
+                    chord_nm: nm.clamp(1, max),
+                    ..machine
+                };
+                if p.apply(self.motion_config()).validate().is_err() {
+                    p.smoothing_ticks = 0;
+                }
+                p
+            }
+            PathControl::Exact => PathSettings {
+                exact: true,
+                ..machine
+            },
         }
     }
 
@@ -715,6 +759,46 @@ impl Config {
     }
 }
 
+/// A chord tolerance in nm as the planner takes it (I32F32 mm, rounded
+/// down).
+pub fn chord_of_nm(nm: u32) -> I32F32 {
+    I32F32::from_bits(((nm.min(1 << 30) as i64) << 32) / 1_000_000)
+}
+
+/// The planner's settings a path control changes
+/// ([`Config::path_settings`]; reported as `PlanEvent::PathControl`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PathSettings {
+    /// Chord tolerance, nm.
+    pub chord_nm: u32,
+    /// Smoothing ticks as set (0: the most that fit).
+    pub smoothing_ticks: u8,
+    /// Exact path.
+    pub exact: bool,
+}
+
+impl PathSettings {
+    /// `base` with these settings.
+    pub fn apply(&self, base: MotionConfig) -> MotionConfig {
+        MotionConfig {
+            chord_tolerance_mm: chord_of_nm(self.chord_nm),
+            smoothing_ticks: self.smoothing_ticks,
+            exact_path: self.exact,
+            ..base
+        }
+    }
+
+    /// The event reporting them, the planner rebuilt at `pos_mm`.
+    pub fn event(&self, pos_mm: [i64; 3]) -> link::PlanEvent {
+        link::PlanEvent::PathControl {
+            pos_mm,
+            chord_nm: self.chord_nm,
+            smoothing_ticks: self.smoothing_ticks,
+            exact: self.exact,
+        }
+    }
+}
+
 /// Thousandths of a mm as I32F32 bits (exact to 2⁻³² mm, rounded down).
 pub fn milli_to_bits(milli: i64) -> i64 {
     ((milli as i128) << 32).div_euclid(1000) as i64
@@ -741,6 +825,7 @@ mod tests {
         }
         assert_eq!(SETTINGS[Key::SpinUp as usize].id, 207);
         assert_eq!(SETTINGS[Key::Smoothing as usize].id, 208);
+        assert_eq!(SETTINGS[Key::PathToleranceMax as usize].id, 210);
         assert_eq!(SETTINGS[Key::StepsPerMmX as usize].id, 100);
         assert_eq!(SETTINGS[Key::TravelZ as usize].id, 132);
         assert_eq!(SETTINGS[Key::HomingPass1 as usize].id, 44);
@@ -771,7 +856,8 @@ mod tests {
     #[test]
     fn corner_smoothing_is_checked_against_the_tolerance() {
         let mut c = Config::DEFAULT;
-        assert_eq!(c.motion_config().smoothing_ticks, 1);
+        assert_eq!(c.motion_config().smoothing_ticks, 0);
+        assert_eq!(c.motion_config().smoothing(), Ok(2), "the most that fit");
         assert_eq!(c.set(208, 2).map(|i| i.apply), Ok(Apply::AtRest));
         assert_eq!(c.motion_config().smoothing_ticks, 2);
         // Three ticks would blend a reversal wider than 1 µm at 1 kHz and
@@ -781,6 +867,32 @@ mod tests {
         assert_eq!(c.motion_config().smoothing_ticks, 2);
         c.set(203, 10_000).unwrap();
         assert_eq!(c.set(208, 3).map(|i| i.apply), Ok(Apply::AtRest));
+    }
+
+    #[test]
+    fn a_programs_path_control_within_the_machines_bound() {
+        let c = Config::DEFAULT;
+        let base = c.motion_config();
+        let machine = c.path_settings(PathControl::Blend);
+        assert_eq!(machine.apply(base), base);
+        // G64 P0.01: 10 µm, within $210; the smoothing that fits it.
+        let p = c.path_settings(PathControl::Tolerance { nm: 10_000 });
+        assert_eq!((p.chord_nm, p.smoothing_ticks, p.exact), (10_000, 0, false));
+        assert_eq!(p.apply(base).smoothing(), Ok(4));
+        // Beyond $210: the bound.
+        let p = c.path_settings(PathControl::Tolerance { nm: u32::MAX });
+        assert_eq!(p.chord_nm, PATH_TOLERANCE_MAX_NM);
+        // $208 = 2 does not fit 0.2 µm: the most that does.
+        let mut d = c;
+        d.set(208, 2).unwrap();
+        let p = d.path_settings(PathControl::Tolerance { nm: 200 });
+        assert_eq!(p.smoothing_ticks, 0);
+        assert_eq!(p.apply(base).smoothing(), Ok(1));
+        assert!(p.apply(base).validate().is_ok());
+        // G61: exact, no smoothing.
+        let e = c.path_settings(PathControl::Exact).apply(base);
+        assert!(e.exact_path);
+        assert_eq!(e.smoothing(), Ok(1));
     }
 
     #[test]

@@ -414,6 +414,17 @@ impl<'a> Planning<'a> {
         config: fuzzy_core::planner::MotionConfig,
         pos: Point3Mm,
     ) -> Result<PlanInput, fuzzy_core::planner::ConfigError> {
+        self.rebuild(config, pos, None)
+    }
+
+    /// [`Self::reset`], reported as `event` (a path control's settings)
+    /// instead of `PlanEvent::Reset` if given.
+    pub fn rebuild(
+        &mut self,
+        config: fuzzy_core::planner::MotionConfig,
+        pos: Point3Mm,
+        event: Option<link::PlanEvent>,
+    ) -> Result<PlanInput, fuzzy_core::planner::ConfigError> {
         config.validate()?;
         *self.motion = Plan::new(config)?;
         // A fresh planner takes its first point.
@@ -430,9 +441,9 @@ impl<'a> Planning<'a> {
         if self.override_percent != 100 {
             self.motion.set_override(self.override_percent);
         }
-        Ok(self.event(link::PlanEvent::Reset {
+        Ok(self.event(event.unwrap_or(link::PlanEvent::Reset {
             pos_mm: pos.to_bits(),
-        }))
+        })))
     }
 
     /// At rest after an abort: drop what is buffered, end the path here.

@@ -148,9 +148,18 @@ pub const CHORD_NM: u32 = env_u32(option_env!("FW_CHORD_NM"), 1000);
 pub const TANGENTIAL_SHARE_PERCENT: u32 = env_u32(option_env!("FW_TANGENTIAL_SHARE_PERCENT"), 50);
 
 /// Ticks the commanded position is averaged over (1 = off, up to
-/// `fuzzy_core::planner::SMOOTHING_MAX`; `FW_SMOOTHING_TICKS`, default 1):
+/// `fuzzy_core::planner::SMOOTHING_MAX`; 0 = the most that fit the chord
+/// tolerance, tick and acceleration; `FW_SMOOTHING_TICKS`, default 0):
 /// corners blended within the chord tolerance and passed faster (`$208`).
-pub const SMOOTHING_TICKS: u8 = clamp(env_u32(option_env!("FW_SMOOTHING_TICKS"), 1), 1, 8) as u8;
+pub const SMOOTHING_TICKS: u8 = clamp(env_u32(option_env!("FW_SMOOTHING_TICKS"), 0), 0, 8) as u8;
+
+/// The largest path tolerance a program may set with G64 P, nm
+/// (`FW_PATH_TOLERANCE_MAX_NM`, default 100 000 = 0.1 mm; `$210`).
+pub const PATH_TOLERANCE_MAX_NM: u32 = clamp(
+    env_u32(option_env!("FW_PATH_TOLERANCE_MAX_NM"), 100_000),
+    1,
+    1_000_000,
+);
 
 /// The velocity planner's settings (`fuzzy_core::planner`); with the
 /// defaults this is `MotionConfig::default()`. Checked at start-up.
@@ -165,6 +174,7 @@ pub const MOTION_CONFIG: MotionConfig = MotionConfig {
         ((clamp(TANGENTIAL_SHARE_PERCENT, 0, 100) as i32) << 16) / 100,
     ),
     smoothing_ticks: SMOOTHING_TICKS,
+    exact_path: false,
 };
 
 /// Points the velocity planner buffers (its lookahead). 112 points of

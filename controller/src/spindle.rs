@@ -115,8 +115,9 @@ impl Spindle {
                 self.mist = mist;
                 false
             }
-            // The background waits it out; no output changes.
-            MachineCmd::Dwell { .. } => false,
+            // The background waits it out, or rebuilds the planner; no
+            // output changes.
+            MachineCmd::Dwell { .. } | MachineCmd::PathControl(_) => false,
         }
     }
 

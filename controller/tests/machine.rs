@@ -1009,3 +1009,95 @@ fn the_tick_rate_applies_at_the_next_reset() {
     let c = Bench::on(VirtualDevice::with_flash(flash).unwrap());
     assert_eq!(c.client.hello().unwrap().tick_hz, 2000);
 }
+
+/// Distance from `p` to the polyline `poly`, mm.
+fn off_polyline(poly: &[[f64; 3]], p: [f64; 3]) -> f64 {
+    poly.windows(2)
+        .map(|w| {
+            let (a, b) = (w[0], w[1]);
+            let ab: Vec<f64> = (0..3).map(|k| b[k] - a[k]).collect();
+            let ap: Vec<f64> = (0..3).map(|k| p[k] - a[k]).collect();
+            let l2: f64 = ab.iter().map(|x| x * x).sum();
+            let t = if l2 > 0.0 {
+                (ap.iter().zip(&ab).map(|(x, y)| x * y).sum::<f64>() / l2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            (0..3)
+                .map(|k| (ap[k] - t * ab[k]).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// A program switching its path control between paths (as the sender sends
+/// `G64 P0.01`, `G61`, `G64`): zigzags with 90° corners, the first blended
+/// within 10 µm (wider than the machine's 1 µm, so it cuts its corners by
+/// more than that), the second on the path exactly with a stop at every
+/// corner, the third within the machine's 1 µm again.
+#[test]
+fn a_programs_path_control_takes_effect_from_its_block_on() {
+    let mut b = Bench::new();
+    let zigzag = |y0: f64, rev: bool| -> Vec<[f64; 3]> {
+        (0..=10)
+            .map(|i| {
+                let x = if rev { 10 - i } else { i } as f64;
+                [x, y0 + (i % 2) as f64, 0.0]
+            })
+            .collect()
+    };
+    let (p1, p2, p3) = (zigzag(0.0, false), zigzag(3.0, true), zigzag(6.0, false));
+    let control = |c| MachineCmd::PathControl(c);
+    b.client
+        .machine(control(link::PathControl::Tolerance { nm: 10_000 }));
+    b.path(&p1[1..]);
+    b.client.machine(control(link::PathControl::Exact));
+    b.path(&p2);
+    b.client.machine(control(link::PathControl::Blend));
+    b.path(&p3);
+    let goal = [mm(10.0), mm(6.0), 0];
+    b.run_until(60_000, |s| s.motion == Motion::Idle && s.pos_mm == goal);
+    let all: Vec<[f64; 3]> = p1.iter().chain(&p2).chain(&p3).copied().collect();
+    let pos: Vec<[f64; 3]> = b.dev.axes.positions.iter().map(|p| p.to_f64()).collect();
+    let mut worst = [0.0f64; 3];
+    for p in &pos {
+        let band = if p[1] < 1.5 {
+            0
+        } else if p[1] < 4.5 {
+            1
+        } else {
+            2
+        };
+        worst[band] = worst[band].max(off_polyline(&all, *p));
+    }
+    assert!(worst[0] <= 0.010 + 1e-9, "G64 P0.01: {} mm", worst[0]);
+    assert!(
+        worst[0] > 0.001,
+        "G64 P0.01 blended no wider: {} mm",
+        worst[0]
+    );
+    assert!(worst[1] <= 1e-9, "G61: {} mm off the path", worst[1]);
+    assert!(worst[2] <= 0.001 + 1e-9, "G64: {} mm", worst[2]);
+    // G61: every corner of the second zigzag is passed at the creep speed.
+    for v in &p2[1..p2.len() - 1] {
+        let k = (0..pos.len())
+            .min_by(|&i, &j| {
+                let d = |p: [f64; 3]| (p[0] - v[0]).hypot(p[1] - v[1]);
+                d(pos[i]).total_cmp(&d(pos[j]))
+            })
+            .unwrap();
+        let step = |i: usize| (pos[i + 1][0] - pos[i][0]).hypot(pos[i + 1][1] - pos[i][1]);
+        assert!(
+            step(k - 1).max(step(k)) < 1e-4,
+            "G61 corner {v:?} passed at {} mm/tick",
+            step(k)
+        );
+    }
+    eprintln!(
+        "path control: G64 P0.01 {:.2} µm, G61 {:.1e} mm, G64 {:.2} µm off the path",
+        worst[0] * 1e3,
+        worst[1],
+        worst[2] * 1e3
+    );
+}

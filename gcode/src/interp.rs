@@ -29,6 +29,7 @@ use super::program::{File, Jump, Opened};
 use super::sink::Sink;
 use super::text::short;
 use super::{ExtraAxes, GcodeSettings, InitialMotion};
+use crate::toolpath::PathMode;
 
 /// Axis letters in parameter order.
 pub const AXES: [char; 9] = ['X', 'Y', 'Z', 'A', 'B', 'C', 'U', 'V', 'W'];
@@ -1529,6 +1530,22 @@ impl Interp {
                 (8, 0) => self.diameter_mode = false,
                 (96, 0) => self.css = true,
                 (97, 0) => self.css = false,
+                (61, 0 | 1) => self.out.path_control(line, PathMode::Exact),
+                (64, 0) => {
+                    // P in program units; P0 as no P; Q (LinuxCNC's naive
+                    // CAM tolerance) is read and ignored (crate docs).
+                    let p = match b.get('P') {
+                        Some(p) if !(p.is_finite() && p >= 0.0) => {
+                            bail!(
+                                "line {line}: G64 P{} is not a tolerance of 0 or more",
+                                short(p)
+                            )
+                        }
+                        Some(p) if p > 0.0 => Some(p * self.units),
+                        _ => None,
+                    };
+                    self.out.path_control(line, PathMode::Blend(p));
+                }
                 _ => {}
             }
         }

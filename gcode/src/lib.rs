@@ -46,7 +46,8 @@
 //! | `#n`, `#<name>`, `#<_global>`, `[expressions]`, functions, O-words | evaluated as rs274ngc defines them; `o<name> call` also finds `name.ngc` beside the program or in `gcode.subroutine_dirs` |
 //! | A B C U V W | carried (offsets, references, parameters); a move that drives one is refused by name unless `gcode.extra_axes = "ignore"` |
 //! | M3-M5 (with S), M7-M9, S while the spindle runs | no effect on the path; machine events in order with it (`Toolpath::events`: after which point) |
-//! | M0 M1 M19 M48-M53 M62-M65 M67 M68, G4, G61 G61.1 G64, G96 G97, comments, N, `/` lines (block delete on) | no effect on the path |
+//! | G61 G61.1 G64 (P) | path control: machine events where the mode changes, before the block's motion (`MachineEvent::PathControl`): G64 P the tolerance in program units, P0 as G64 alone, Q (LinuxCNC's naive CAM tolerance, which merges nearly collinear short moves) read and ignored, since the planner takes dense short moves as they are; a live program's M2/M30 restores G64 (the sender restores it after a whole program) |
+//! | M0 M1 M19 M48-M53 M62-M65 M67 M68, G4, G96 G97, comments, N, `/` lines (block delete on) | no effect on the path |
 //! | `O1000` program numbers, `M98 P<n> L<passes>`, `M99` | Fanuc/Mach3 subprograms (`O<n>` … `M99`, usually after M30) on the O-word machinery; `M99` in the main program ends it (LinuxCNC's preview and grblHAL; Fanuc and Mach3 would loop) |
 //! | M2 M30, a second `%` | end of program |
 //! | M70-M73 | modal state saved and restored |
@@ -602,6 +603,26 @@ mod tests {
 
     fn p_err_line(src: &str, line: &str) -> bool {
         p(src).is_err_and(|e| format!("{e:#}").contains(line))
+    }
+
+    #[test]
+    fn path_control_words_are_events_where_they_change() {
+        use crate::toolpath::{MachineEvent, PathMode};
+        let pc = MachineEvent::PathControl;
+        // P in program units (G20: 0.001 in = 0.0254 mm); a repeated mode
+        // is no event; Q is ignored.
+        let t = p("G1 X1 F100\nG64 P0.01 Q0.02\nG1 X2\nG64 P0.01\nG61\nG1 X3\nG61.1\nG64\nG20 G64 P0.001\nG1 X4\nM2\n")
+            .unwrap();
+        assert_eq!(
+            t.events,
+            vec![
+                (1, 2, pc(PathMode::Blend(Some(0.01)))),
+                (2, 5, pc(PathMode::Exact)),
+                (3, 8, pc(PathMode::Blend(None))),
+                (3, 9, pc(PathMode::Blend(Some(0.0254)))),
+            ]
+        );
+        assert!(p("G64 P-1\n").is_err());
     }
 
     #[test]

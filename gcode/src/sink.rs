@@ -8,7 +8,7 @@ use anyhow::{bail, Result};
 use crate::text::short;
 
 use super::arc::{self, Centre, Plane, RadiusTolerance};
-use crate::toolpath::{MachineEvent, SpindleDir};
+use crate::toolpath::{MachineEvent, PathMode, SpindleDir};
 
 /// Most warnings a [`Sink`] keeps.
 pub const MAX_WARNINGS: usize = 10_000;
@@ -68,6 +68,7 @@ pub struct Sink {
     mist: bool,
     /// Warnings made so far, handed out or not.
     warned: usize,
+    path: PathMode,
     /// Points handed out and dropped before `points[0]`.
     base: usize,
     /// Points of `points` already handed out.
@@ -91,14 +92,16 @@ impl Sink {
             rpm: 0.0,
             flood: false,
             mist: false,
+            path: PathMode::default(),
             base: 0,
             sent: 0,
         }
     }
 
-    /// Spindle and coolant off (a program's end), as events only for what
-    /// is on.
+    /// Spindle and coolant off and the path control back to G64 (a
+    /// program's end), as events only for what is not so already.
     pub fn all_off(&mut self, line: u32) {
+        self.path_control(line, PathMode::default());
         if self.spindle != SpindleDir::Off {
             self.m_word(line, 5, self.rpm);
         }
@@ -217,6 +220,15 @@ impl Sink {
     pub fn dwell(&mut self, line: u32, s: f64) {
         if s > 0.0 {
             self.event(line, MachineEvent::Dwell { s });
+        }
+    }
+
+    /// The path control of block `line` (G61, G61.1, G64), an event before
+    /// its motion where it changes.
+    pub fn path_control(&mut self, line: u32, mode: PathMode) {
+        if mode != self.path {
+            self.path = mode;
+            self.event(line, MachineEvent::PathControl(mode));
         }
     }
 

@@ -20,7 +20,7 @@ pub enum SpindleDir {
     Ccw,
 }
 
-/// A machine command of a program (spindle, coolant, dwell), in order with the
+/// A machine command of a program (spindle, coolant, dwell, path control), in order with the
 /// motion: it takes effect once the tool has reached a point of the path.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum MachineEvent {
@@ -45,6 +45,25 @@ pub enum MachineEvent {
         /// Seconds.
         s: f64,
     },
+    /// Path control from here on (G61, G61.1, G64, G64 P): how far the
+    /// planner may leave the programmed path.
+    PathControl(PathMode),
+}
+
+/// A path control mode (RS274/NGC modal group 13, LinuxCNC's G61/G64).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PathMode {
+    /// G64 (what a program starts in): blending within the machine's
+    /// tolerance; with P (mm, > 0) within that tolerance.
+    Blend(Option<f64>),
+    /// G61, G61.1: exact path, a stop at every corner.
+    Exact,
+}
+
+impl Default for PathMode {
+    fn default() -> Self {
+        PathMode::Blend(None)
+    }
 }
 
 /// A polyline with per-block feed caps and source lines.

@@ -258,6 +258,26 @@ pub enum MachineCmd {
         /// Milliseconds.
         ms: u32,
     },
+    /// Path control (G61/G61.1, G64, G64 P): the tolerance the planner
+    /// may use for chords and corner blending from the next path on
+    /// (appended last: the other commands keep their encoding).
+    PathControl(PathControl),
+}
+
+/// Path control of a program ([`MachineCmd::PathControl`]).
+#[derive(Serialize, Deserialize, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum PathControl {
+    /// G64: the machine's tolerance (`$203`).
+    #[default]
+    Blend,
+    /// G64 P: this tolerance, within the machine's largest (`$210`).
+    Tolerance {
+        /// Nanometres (at least 1).
+        nm: u32,
+    },
+    /// G61, G61.1: exact path, a stop at every vertex where the path turns.
+    Exact,
 }
 
 /// The longest dwell a `MachineCmd::Dwell` may ask for, ms (one hour).
@@ -482,6 +502,20 @@ pub enum PlanEvent {
     Reset {
         /// Where it rests, mm, I32F32 bits per axis.
         pos_mm: [I32F32Bits; 3],
+    },
+    /// As [`PlanEvent::Reset`], with these settings in place of the
+    /// machine's: a program's path control ([`MachineCmd::PathControl`]),
+    /// or the machine's again after one (appended last: the other events
+    /// keep their encoding).
+    PathControl {
+        /// Where it rests, mm, I32F32 bits per axis.
+        pos_mm: [I32F32Bits; 3],
+        /// Chord tolerance, nm.
+        chord_nm: u32,
+        /// Ticks of smoothing as set (0: the most that validates).
+        smoothing_ticks: u8,
+        /// Exact path.
+        exact: bool,
     },
 }
 

@@ -15,10 +15,10 @@ use controller::settings::FEED_MAX_MM_PER_MIN;
 use fuzzy_core::scheduler::{PathPoint, ScheduledPoint, SchedulerConfig};
 use fuzzy_core::units::{FeedMmPerMin, Point3Mm};
 use gcode_interp::shapes::Shape;
-use gcode_interp::toolpath::MachineEvent;
+use gcode_interp::toolpath::{MachineEvent, PathMode};
 use gcode_interp::GcodeSettings;
 use link::batch::to_grid;
-use link::{MachineCmd, SpindleDir};
+use link::{MachineCmd, PathControl, SpindleDir};
 
 /// Where a program came from.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -118,6 +118,14 @@ pub fn machine_cmd(e: &MachineEvent) -> Option<MachineCmd> {
             }
             MachineCmd::Dwell { ms: ms as u32 }
         }
+        MachineEvent::PathControl(m) => MachineCmd::PathControl(match m {
+            PathMode::Exact => PathControl::Exact,
+            PathMode::Blend(None) => PathControl::Blend,
+            // mm → nm, at least 1 (the controller bounds it by $210).
+            PathMode::Blend(Some(mm)) => PathControl::Tolerance {
+                nm: (mm * 1e6).round().clamp(1.0, u32::MAX as f64) as u32,
+            },
+        }),
     })
 }
 
@@ -136,6 +144,11 @@ pub fn cmd_text(c: &MachineCmd) -> String {
             (true, true) => "M7 M8".into(),
         },
         MachineCmd::Dwell { ms } => format!("G4 P{}", ms as f64 / 1000.0),
+        MachineCmd::PathControl(PathControl::Exact) => "G61".into(),
+        MachineCmd::PathControl(PathControl::Blend) => "G64".into(),
+        MachineCmd::PathControl(PathControl::Tolerance { nm }) => {
+            format!("G64 P{}", nm as f64 / 1e6)
+        }
     }
 }
 
@@ -282,6 +295,19 @@ fn from_toolpath(
             after: *after,
             line: *line,
             cmd,
+        });
+    }
+    // The controller keeps a path control until told otherwise: the next
+    // program starts in G64 (as a live program's M2 restores it).
+    let last_control = events.iter().rev().find_map(|e| match e.cmd {
+        MachineCmd::PathControl(c) => Some(c),
+        _ => None,
+    });
+    if last_control.is_some_and(|c| c != PathControl::Blend) {
+        events.push(Event {
+            after: t.len().saturating_sub(1),
+            line: 0,
+            cmd: MachineCmd::PathControl(PathControl::Blend),
         });
     }
     Program::new(t.name, source, points, t.lines, blocks_mm, spec).map(|p| p.with_events(events))

@@ -75,6 +75,7 @@ pub fn replay(
     let mut m: Box<Plan> = Box::new(Plan::new(config).expect("planner settings"));
     let accel_mm_s2 = m.accel_limit_mm_s2().to_num::<f64>();
     let mut p = Planning::new(&mut m, Point3Mm::ORIGIN).expect("start at rest");
+    let mut path_config = config;
     let mut r = Replayed {
         ticks: Vec::new(),
         checksums: vec![p.checksum().folded()],
@@ -130,7 +131,24 @@ pub fn replay(
                     }
                     PlanEvent::Reset { pos_mm } => {
                         let pos = Point3Mm::from_bits(pos_mm[0], pos_mm[1], pos_mm[2]);
-                        p.reset(config, pos).expect("the firmware's settings");
+                        p.reset(path_config, pos).expect("the firmware's settings");
+                    }
+                    PlanEvent::PathControl {
+                        pos_mm,
+                        chord_nm,
+                        smoothing_ticks,
+                        exact,
+                    } => {
+                        // A program's path control: its settings in place
+                        // of the machine's from here on.
+                        path_config = controller::config::PathSettings {
+                            chord_nm,
+                            smoothing_ticks,
+                            exact,
+                        }
+                        .apply(config);
+                        let pos = Point3Mm::from_bits(pos_mm[0], pos_mm[1], pos_mm[2]);
+                        p.reset(path_config, pos).expect("the firmware's settings");
                     }
                 }
             }

@@ -1275,10 +1275,11 @@ fn settings_are_read_and_written_over_the_link() {
 /// with the path index the tool had reached, at rest at the end of the path
 /// before it (Grbl's spindle sync), the second path only after the
 /// spin-up delay; the motion stays bit-exact.
-/// Corner smoothing set over the link (`$208`): a window too long for the
-/// chord tolerance is refused, two ticks are taken, and a zigzag of sharp
-/// corners runs with them bit for bit as the host replays it (the replay
-/// reads `$208` back), within every limit.
+/// Corner smoothing set over the link (`$208`, 0 by default: the most that
+/// fit, two ticks here): a window too long for the chord tolerance is
+/// refused, two ticks are taken, and a zigzag of sharp corners runs with
+/// them bit for bit as the host replays it (the replay reads `$208` back),
+/// within every limit.
 #[test]
 fn corner_smoothing_set_over_the_link_runs_bit_for_bit() {
     if !qemu_available() {
@@ -1287,7 +1288,7 @@ fn corner_smoothing_set_over_the_link_runs_bit_for_bit() {
     use link::StoreResult;
     let mut fw = Firmware::start("smoothing");
     wait_for_store(&mut fw, StoreResult::Corrupt);
-    assert_eq!(fw.get_setting(208), Ok(1), "off by default");
+    assert_eq!(fw.get_setting(208), Ok(0), "the most that fit by default");
     assert_eq!(fw.set_setting(208, 3), Err(ErrorCode::OutOfRange));
     assert_eq!(fw.set_setting(208, 2), Ok(2));
     let pts: Vec<PathPoint> = (0..60)
@@ -1400,4 +1401,61 @@ fn spindle_commands_are_reported_at_their_path_index() {
         "spindle: M3 S12000 applied at path index 40 (tick {}), the second path after the 100 ms spin-up (tick {}), M5 at index 40 of the second (tick {})",
         applied[0].3, first_b.tick, applied[1].3
     );
+}
+
+/// A program's path control in the path stream (`G64 P0.01` then `G61`):
+/// each takes effect at rest at the end of the path before it, the planner
+/// rebuilt with its settings (`PlanEvent::PathControl`), and the host's
+/// replay of those settings gives the firmware's setpoints bit for bit.
+#[test]
+fn path_control_in_the_stream_runs_bit_for_bit() {
+    if !qemu_available() {
+        return;
+    }
+    use link::{MachineCmd, PathControl};
+    let mut fw = Firmware::start("path-control");
+    let zigzag = |from: usize| -> Vec<PathPoint> {
+        let pts: Vec<PathPoint> = (from..from + 30)
+            .map(|i| {
+                let y = if i % 2 == 0 { 0.0 } else { 0.2 };
+                PathPoint::at(Point3Mm::from_f64(i as f64 * 0.3, y, 0.0).unwrap())
+            })
+            .collect();
+        on_grid(&pts)
+    };
+    let (a, b) = (zigzag(0), zigzag(30));
+    fw.machine(MachineCmd::PathControl(PathControl::Tolerance {
+        nm: 10_000,
+    }));
+    let sent_a = Sent::stream(&mut fw, config(), &a[1..]);
+    fw.machine(MachineCmd::PathControl(PathControl::Exact));
+    let sent_b = Sent {
+        config: config(),
+        pts: b.clone(),
+        seqs: fw.points(&b),
+    };
+    fw.end_path();
+    fw.flush(Duration::from_secs(60));
+    let goal = end_of(&b);
+    fw.poll_until(Duration::from_millis(20), Duration::from_secs(240), |s| {
+        s.motion == Motion::Idle && s.pos_mm == goal
+    });
+    let events = fw
+        .rec
+        .plan_log
+        .iter()
+        .filter(|e| {
+            matches!(
+                e,
+                system_tests::firmware::PlanLog::Event {
+                    event: link::PlanEvent::PathControl { .. },
+                    ..
+                }
+            )
+        })
+        .count();
+    assert_eq!(events, 2, "both rebuilds reported");
+    let (rep, _) = verify("path control", &mut fw, &[sent_a, sent_b], 0);
+    assert_eq!(rep.ticks.last().unwrap().pos.to_bits(), goal);
+    println!("path control: G64 P0.01 then G61 in the stream, bit for bit");
 }

@@ -28,17 +28,30 @@ pub struct MotionConfig {
     /// vertices (`0 < ρ < 1`, default 0.5).
     pub tangential_share: Fx,
     /// Commanded positions averaged over this many ticks (1 = off, at most
-    /// [`SMOOTHING_MAX`]): corners are blended within the chord tolerance
-    /// and may be passed faster (module docs of [`super`], "Smoothing").
+    /// [`SMOOTHING_MAX`]; 0 = the most, up to [`SMOOTHING_AUTO_MAX`], that
+    /// validates with the tolerance, tick and acceleration,
+    /// [`MotionConfig::smoothing`]): corners are
+    /// blended within the chord tolerance and may be passed faster (module
+    /// docs of [`super`], "Smoothing").
     pub smoothing_ticks: u8,
+    /// Exact path (G61, G61.1): no smoothing, and every vertex where the
+    /// path turns is passed at the creep speed, a stop (module docs of
+    /// [`super`], "Ceilings"); collinear points are not.
+    pub exact_path: bool,
 }
 
 /// The longest position average, ticks.
 pub const SMOOTHING_MAX: u8 = 8;
 
+/// The longest average `smoothing_ticks = 0` picks: beyond it the window's
+/// margins (`n·ρA` a step) cost more on dense paths than the wider blend
+/// gains (README, "Velocity planner": cycle times against `n`).
+pub const SMOOTHING_AUTO_MAX: u8 = 4;
+
 impl Default for MotionConfig {
     /// 1 kHz, 5000 mm/min, 10 m/min and 2000 mm/s² per axis, 50 000 mm/s³,
-    /// chord tolerance 1 µm, ρ = 0.5, no smoothing.
+    /// chord tolerance 1 µm, ρ = 0.5, smoothing over as many ticks as
+    /// validate (2 with these limits).
     fn default() -> Self {
         MotionConfig {
             tick_us: 1000,
@@ -48,7 +61,8 @@ impl Default for MotionConfig {
             jerk_max_mm_s3: 50_000,
             chord_tolerance_mm: I32F32::from_bits(4_294_967), // 0.001 mm
             tangential_share: Fx::lit("0.5"),
-            smoothing_ticks: 1,
+            smoothing_ticks: 0,
+            exact_path: false,
         }
     }
 }
@@ -133,6 +147,8 @@ pub(crate) struct Limits {
     pub cap_reach: i64,
     /// Ticks averaged into the commanded position (1 = off).
     pub smoothing: u32,
+    /// Exact path: every vertex that turns is a stop.
+    pub exact: bool,
     /// With smoothing: how much faster than across a vertex the tool may
     /// step within a window holding it (`n + 1` steps), `n·ρ·min A` per tick.
     pub window_margin: i64,
@@ -190,6 +206,13 @@ impl MotionConfig {
     /// checks, without building one).
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.compile().map(|_| ())
+    }
+
+    /// The ticks the commanded positions are averaged over with these
+    /// settings: `smoothing_ticks`, or with 0 the most (up to
+    /// [`SMOOTHING_AUTO_MAX`]) that validates; 1 on an exact path.
+    pub fn smoothing(&self) -> Result<u8, ConfigError> {
+        self.compile().map(|l| l.smoothing as u8)
     }
 
     /// Check and compile.
@@ -251,6 +274,31 @@ impl MotionConfig {
         }
         let axis_accel = self.axis_accel_max_mm_s2.map(accel);
         let unbinding = feed_max.saturating_add(feed_max / 512).saturating_add(64);
+        if self.smoothing_ticks > SMOOTHING_MAX {
+            return Err(ConfigError::Smoothing);
+        }
+        let corner_creep = (jerk.min(tangential) / 2)
+            .min(corner.iter().copied().min().unwrap_or(0) / 2)
+            .max(1);
+        // A corner is never passed slower than `corner_creep`; the
+        // deviation of a reversal there (`‖Δd‖ = 2`) from the commanded
+        // moves must stay within the tolerance (module docs of [`super`],
+        // "Smoothing"): `g_n·2·(creep + (2n − 1)·ρA/2) <= δ`,
+        // `g_n = (2n² + 1 + n mod 2)/(16n)`.
+        let fits = |n: i64| {
+            let spread = 2 * corner_creep as i128 + ((2 * n - 1) * tangential) as i128;
+            (2 * n * n + 1 + n % 2) as i128 * spread <= 16 * n as i128 * chord as i128
+        };
+        let n = match self.smoothing_ticks {
+            _ if self.exact_path => 1,
+            0 => (2..=i64::from(SMOOTHING_AUTO_MAX))
+                .rev()
+                .find(|&n| fits(n))
+                .unwrap_or(1),
+            k if k == 1 || fits(i64::from(k)) => i64::from(k),
+            _ => return Err(ConfigError::Smoothing),
+        };
+        let window_margin = if n > 1 { n * tangential } else { 0 };
         let chord_free = {
             let h = unbinding / 2;
             let need = q::mul(h, h).saturating_add(q::mul(chord, chord));
@@ -260,24 +308,6 @@ impl MotionConfig {
                 i64::MAX
             }
         };
-        if !(1..=SMOOTHING_MAX).contains(&self.smoothing_ticks) {
-            return Err(ConfigError::Smoothing);
-        }
-        let n = i64::from(self.smoothing_ticks);
-        let window_margin = if n > 1 { n * tangential } else { 0 };
-        let corner_creep = (jerk.min(tangential) / 2)
-            .min(corner.iter().copied().min().unwrap_or(0) / 2)
-            .max(1);
-        if n > 1 {
-            // A corner is never passed slower than `corner_creep`; the blend
-            // of a reversal there (`‖Δd‖` bounded by 5/2 in the lookahead's
-            // measure) must stay within the tolerance:
-            // `g_n·5/2·(creep + (2n − 3)·ρA/2) <= δ`, `g_n = ⌊n²/4⌋/(2n)`.
-            let spread = corner_creep as i128 + ((2 * n - 3) * tangential / 2) as i128;
-            if (n * n / 4) as i128 * 5 * spread > 4 * n as i128 * chord as i128 {
-                return Err(ConfigError::Smoothing);
-            }
-        }
         let cap_reach = feed_max * 5 / 2;
         let reach = if n > 1 {
             cap_reach.max((n + 1) * (feed_max + window_margin))
@@ -298,6 +328,7 @@ impl MotionConfig {
             reach,
             cap_reach,
             smoothing: n as u32,
+            exact: self.exact_path,
             window_margin,
             creep: (jerk.min(tangential) / 2).max(1),
             corner_creep,
@@ -383,16 +414,36 @@ mod tests {
             .compile()
             .map(|l| l.smoothing)
         };
-        assert_eq!(with(0, 1000), Err(ConfigError::Smoothing));
         assert_eq!(with(SMOOTHING_MAX + 1, 1000), Err(ConfigError::Smoothing));
         assert_eq!(with(1, 1000), Ok(1));
         assert_eq!(with(2, 1000), Ok(2));
         // At 1 kHz a reversal at the least corner speed, averaged over three
-        // ticks, would be blended wider than 1 µm; at 2 kHz it fits.
+        // ticks, would leave the commanded moves farther than 1 µm from
+        // the vertex; at 2 kHz it fits, five ticks do not.
         assert_eq!(with(3, 1000), Err(ConfigError::Smoothing));
         assert_eq!(with(3, 500), Ok(3));
         assert_eq!(with(4, 500), Ok(4));
-        let l = with(1, 1000).and(c.compile()).unwrap();
+        assert_eq!(with(5, 500), Err(ConfigError::Smoothing));
+        // 0: the most that fits.
+        assert_eq!(with(0, 1000), Ok(2));
+        assert_eq!(with(0, 500), Ok(4));
+        assert_eq!(c.smoothing(), Ok(2));
+        let wide = MotionConfig {
+            chord_tolerance_mm: I32F32::from_num(0.01),
+            ..c
+        };
+        assert_eq!(wide.smoothing(), Ok(4));
+        let exact = MotionConfig {
+            exact_path: true,
+            ..wide
+        };
+        assert_eq!(exact.smoothing(), Ok(1));
+        let l = MotionConfig {
+            smoothing_ticks: 1,
+            ..c
+        }
+        .compile()
+        .unwrap();
         assert_eq!((l.reach, l.window_margin), (l.cap_reach, 0));
     }
 

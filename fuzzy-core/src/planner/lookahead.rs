@@ -472,7 +472,9 @@ impl Plan {
             let ceil = if self.is_path_start(i) || last_of_path {
                 self.lim.creep
             } else {
-                let turn = if self.lim.smoothing > 1 {
+                let turn = if self.lim.exact && self.nodes.get(i).is_some_and(turns) {
+                    0
+                } else if self.lim.smoothing > 1 {
                     self.window_limit(i)
                 } else {
                     self.turn_limit(i)
@@ -757,8 +759,8 @@ impl Plan {
 
     /// The window test of passing node `i` at speed `u` (travel per tick):
     /// how far the averaged positions stay within the per-axis acceleration
-    /// and within the chord tolerance of the polyline (`slack >= 0`:
-    /// within; module docs of [`super`], "Smoothing"), and where the
+    /// and the moves between them within the chord tolerance of the
+    /// polyline's vertices (`slack >= 0`: within; module docs of [`super`], "Smoothing"), and where the
     /// conditions' linear pieces through `u` reach zero ([`Probe`]).
     /// Within the window the speed is taken as at most
     /// `U = u + m` (the window margin). The average of `n` ticks' second
@@ -772,14 +774,18 @@ impl Plan {
     /// (both times `n`; the node's own vertex weighs `u`, the step that
     /// crosses it): `Σ_k |Δd_k,a|·w_k <= n·B_a` at each corner, with
     /// `B_a` the axis' corner share. Every term grows with `U`.
-    /// The deviation of an average of `n` points on the polyline from it
-    /// is at most `g_n·U·‖Δd‖` at a single vertex in the window's middle
-    /// (`g_n = ⌊n²/4⌋/(2n)`: the mean distance of the points beyond the
-    /// middle, per `U`), falling linearly to zero where the vertex leaves
-    /// the window (`(n − 1)·U/2` away); summed over the vertices:
-    /// `g_n·Σ_k ‖Δd_k‖·(U_dev − 2δ_k/(n − 1))⁺ <= δ`, with the points'
-    /// spacing `U_dev = u + (2n − 3)·ρA/2` (within `n − 1` steps of the
-    /// crossing). `‖Δd‖` is bounded by the largest component plus half the
+    /// The deviation is that of the commanded moves, not only of the
+    /// commanded positions: a point of the move between two averaged
+    /// positions, a fraction `t` on, is the average of `n + 1` positions
+    /// weighed `(1 − t)/n, 1/n, …, 1/n, t/n`, which deviates from the
+    /// polyline at most `g_n·U·‖Δd‖` at a single vertex under its weighted
+    /// middle (the weighted distance of the points beyond the middle, per
+    /// `U`, largest at `t = 1/4` or `1/2`: `g_n = (2n² + 1 + n mod 2)/(16n)`,
+    /// 9/32 at `n = 2`), falling to zero where the vertex leaves it
+    /// (`n·U/2` away: the kernel is convex there, so the line bounds it);
+    /// summed over the vertices: `g_n·Σ_k ‖Δd_k‖·(U_dev − 2δ_k/n)⁺ <= δ`, with the points'
+    /// spacing `U_dev = u + (2n − 1)·ρA/2` (within `n` steps of the
+    /// crossing). This bounds the blend and the chord of a tick together. `‖Δd‖` is bounded by the largest component plus half the
     /// others.
     /// `out` is [`Self::out_dir`] of the node.
     #[inline(never)]
@@ -797,8 +803,8 @@ impl Plan {
         // The node's own vertex weighs the step that crosses it, taken as
         // `u` (as the single-tick corner limit takes it: the change of speed
         // within the tick is neglected). The deviation's points lie within
-        // `n − 1` steps of that one: `U_dev = u + (2n − 3)·ρA/2`.
-        let u_dev = u.saturating_add((2 * n - 3) * lim.accel / 2);
+        // `n` steps of that one: `U_dev = u + (2n − 1)·ρA/2`.
+        let u_dev = u.saturating_add((2 * n - 1) * lim.accel / 2);
         if ue > WINDOW_SPEED_MAX || u_dev > WINDOW_SPEED_MAX {
             // Beyond any configuration's feed: failed (the sums below
             // would not be proven to fit).
@@ -845,14 +851,13 @@ impl Plan {
             dev_slope,
         } = acc;
         // Each condition's budget less its demand (mm; the deviation's
-        // scaled by `2n(n − 1)`) and the demand's slope (Q14; the
-        // deviation's scaled alike).
-        let g = n * n / 4;
-        let dev_slack = (2 * n as i128 * (n - 1) as i128 * lim.chord as i128
-            - dev as i128 * g as i128)
+        // scaled by `16n²`) and the demand's slope (Q14; the deviation's
+        // scaled alike).
+        let g = 2 * n * n + 1 + n % 2;
+        let dev_slack = (16 * (n * n) as i128 * lim.chord as i128 - dev as i128 * g as i128)
             .clamp(i64::MIN as i128, i64::MAX as i128) as i64;
         let share = corner_share(lim, out, sum);
-        let mut conditions = [(dev_slack, dev_slope.saturating_mul(g * (n - 1))); 7];
+        let mut conditions = [(dev_slack, dev_slope.saturating_mul(g * n)); 7];
         for (a, pair) in conditions.chunks_exact_mut(2).enumerate().take(3) {
             let budget = share[a].saturating_mul(n);
             if let [on_ahead, on_behind] = pair {
@@ -1125,8 +1130,8 @@ impl WindowSums {
             self.behind_slope[a] += t * kb;
             self.sum[a] += t;
         }
-        // `(n − 1)·(U_dev − 2δ/(n − 1))⁺`, without a division.
-        let wd = w.u_dev * (w.n - 1) - 2 * d;
+        // `n·(U_dev − 2δ/n)⁺`, without a division.
+        let wd = w.u_dev * w.n - 2 * d;
         if wd > 0 {
             let l2 = l2_bound(turn);
             self.dev += (l2 * wd) >> 14;
@@ -1185,6 +1190,13 @@ fn linear_zero(u: i64, passed: bool, conditions: &[(i64, i64); 7]) -> Option<i64
     } else {
         u.saturating_sub(du.saturating_add(1))
     })
+}
+
+/// Whether the path turns at node `n` on an exact path (G61): a change
+/// of direction beyond the rounding of collinear moves (a component above
+/// 2^-13), where the tool stops.
+fn turns(n: &Node) -> bool {
+    n.turn.iter().any(|&t| t > 2)
 }
 
 /// An upper bound of the Euclidean length of a direction change (Q14):

@@ -73,7 +73,11 @@
 //! - the chord-error bound of the interpolation period,
 //!   `v <= (2/Ts)·√(2δ/κ − δ²)` (the chord of one tick on a circle of
 //!   curvature κ deviates at most δ);
-//! - at the start and end of a path the creep speed `J·Ts²/2`, i.e. a stop.
+//! - at the start and end of a path the creep speed `J·Ts²/2`, i.e. a stop;
+//!   on an exact path (`exact_path`, G61) also at every vertex where the
+//!   path turns (beyond the rounding of collinear moves), as LinuxCNC's
+//!   exact path mode stops at every junction that is not collinear (its
+//!   G61 documentation): a polyline arc stops at each of its points.
 //!
 //! A segment shorter than the corner reach (2.5 ticks at the maximum feed,
 //! also how far ahead a point waits for its neighbours before its ceiling
@@ -92,7 +96,8 @@
 //! stops at each such point but never stalls.
 //!
 //! # Smoothing (corner blending)
-//! With `smoothing_ticks = n > 1` the commanded position is the mean of the
+//! With `smoothing_ticks = n > 1` (by default the most ticks that validate:
+//! `smoothing_ticks = 0`, [`MotionConfig::smoothing`]) the commanded position is the mean of the
 //! executor's last `n` positions (`smoothing.rs`: a moving-average FIR
 //! filter on the interpolated positions, as Klipper's input shaper and
 //! axis smoothing weigh the motion over a time window,
@@ -107,19 +112,29 @@
 //! direction-change ceiling is replaced by the window test of
 //! `Lookahead::window_probe` (per axis: the mean of `n` ticks' hats is a
 //! trapezoid, checked at its corners `s_i ± (n − 1)·U/2`; and the blend's
-//! deviation from the polyline `g_n·Σ‖Δd_k‖·(U − 2δ_k/(n − 1))⁺ <= δ`, the
-//! chord tolerance, `g_n = ⌊n²/4⌋/(2n)`), solved for the speed by
+//! deviation from the polyline `g_n·Σ‖Δd_k‖·(U − 2δ_k/n)⁺ <= δ`, the
+//! chord tolerance, `g_n = (2n² + 1 + n mod 2)/(16n)`, below), solved for the speed by
 //! safeguarded Newton steps on its piecewise-linear conditions
 //! (`Lookahead::window_limit`). A vertex weighs the step that crosses it (the sum of its hats
 //! over the ticks is that step): the node's own taken as `u` (the change
 //! of speed within a tick neglected, as in the single-tick corner limit),
 //! its neighbours' within the window (`n + 1` steps) at most
 //! `U = u + n·ρA` (the window margin); the deviation's points lie within
-//! `n − 1` steps of the crossing, `U_dev = u + (2n − 3)·ρA/2` for every
+//! `n` steps of the crossing, `U_dev = u + (2n − 1)·ρA/2` for every
 //! vertex. The deviation kernel is
 //! exact for a single vertex and on a densely sampled curve; for vertices
 //! closer than the window it is checked, not proven (the property tests
 //! hold every commanded position within the tolerance of the polyline).
+//! The deviation bounded is that of the commanded moves from the
+//! polyline's vertices, blend and chord of a tick together (the split of
+//! the tolerance between them is the geometry's, not a fixed share): the
+//! points of the move between two averaged positions are themselves
+//! averages of `n + 1` positions (weights `(1 − t)/n, 1/n, …, 1/n, t/n`),
+//! and the kernel checked is the largest of theirs. On a circle at `n = 2`
+//! that is `u²κ/8` for the averaged positions plus `u²κ/8` for the chord
+//! between them, `u²κ/4` in all; at a single corner `9/32·u·‖Δd‖` (at
+//! `t = 1/4`) against `u·‖Δd‖/4` for the positions alone. The chord bound
+//! from the curvature stays as without smoothing (it is weaker).
 //! The corner reach grows to `(n + 1)` ticks at the maximum feed plus the
 //! margin. With smoothing the position trails the tick's arc length, speed
 //! and acceleration (the executor's) by `(n − 1)/2` ticks, and a stop ends
@@ -220,7 +235,7 @@ mod motion;
 mod q;
 mod smoothing;
 
-pub use config::{ConfigError, MotionConfig, SMOOTHING_MAX};
+pub use config::{ConfigError, MotionConfig, SMOOTHING_AUTO_MAX, SMOOTHING_MAX};
 pub use executor::{MotionState, Tick};
 pub use lookahead::{MotionError, MotionPoint, PlannedPoint};
 pub use motion::Motion;

@@ -100,6 +100,7 @@ fn limits() -> impl Strategy<Value = MotionConfig> {
                 chord_tolerance_mm: fixed::types::I32F32::from_num(chord_um as f64 * 1e-3),
                 tangential_share: Fx::from_num(share as f64 / 100.0),
                 smoothing_ticks: 1,
+                exact_path: false,
             },
         )
 }
@@ -482,6 +483,7 @@ fn cfg_of(
         chord_tolerance_mm: fixed::types::I32F32::from_num(0.001),
         tangential_share: Fx::from_num(share),
         smoothing_ticks: 1,
+        exact_path: false,
     }
 }
 
@@ -583,7 +585,7 @@ fn full_buffer_within_the_reach_moves(cfg: MotionConfig) {
         assert!(cycle::<112>(&points, cfg).is_some(), "{name}: no progress");
         let ticks = drive_n::<16>(&points, cfg, |_, _| {});
         assert_physical(name, &peaks(&ticks, &cfg, accel), &cfg);
-        let off_path = if cfg.smoothing_ticks > 1 {
+        let off_path = if cfg.smoothing().unwrap_or(1) > 1 {
             cfg.chord_tolerance_mm.to_num::<f64>() + 1e-6
         } else {
             1e-6

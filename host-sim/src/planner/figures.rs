@@ -228,7 +228,7 @@ impl Meter {
             amax: settings.axis_accel_max_mm_per_s2.map(|a| a as f64),
             acc_t,
             jerk_t: settings.jerk_max_mm_per_s3 as f64,
-            lag: usize::from(settings.smoothing_ticks.max(1)) - 1,
+            lag: usize::from(settings.smoothing().max(1)) - 1,
             n_points,
             win: [first; 4],
             seen: 1,
@@ -398,11 +398,7 @@ pub fn measure(
         length_mm: run.points.last().map_or(0.0, |p| p.s_mm),
         buffer_points: settings.buffer_points,
         cycle_time_s: run.cycle_time_s(),
-        chord_tolerance_mm: if settings.smoothing_ticks > 1 {
-            2.0 * settings.chord_tolerance_mm
-        } else {
-            settings.chord_tolerance_mm
-        },
+        chord_tolerance_mm: settings.chord_tolerance_mm,
         tangential_limits: [acc_t, jerk_t],
         axis_velocity_ratio: m.axis_velocity_ratio,
         axis_accel_ratio: m.axis_accel_ratio,
@@ -649,10 +645,13 @@ mod tests {
     }
 
     #[test]
-    fn smoothing_keeps_the_limits_and_the_doubled_chord_bound() {
+    fn smoothing_keeps_the_limits_and_the_chord_bound() {
         let path = square();
         let mp = motion_points(&path, &[3000.0; 5], &[]).unwrap();
-        let plain = PlannerSettings::default();
+        let plain = PlannerSettings {
+            smoothing_ticks: 1,
+            ..PlannerSettings::default()
+        };
         let smooth = PlannerSettings {
             smoothing_ticks: 2,
             ..plain.clone()
@@ -670,8 +669,8 @@ mod tests {
             &smooth,
         );
         assert!(f.within_limits(), "{}", text(&f));
-        assert_eq!(f.chord_tolerance_mm, 0.002);
-        assert!(f.chord_deviation_mm <= 0.002 + 1e-9, "{}", text(&f));
+        assert_eq!(f.chord_tolerance_mm, 0.001);
+        assert!(f.chord_deviation_mm <= 0.001 + 1e-9, "{}", text(&f));
         // Four sharp corners between long sides: the blend is held by the
         // tolerance there, so little is gained (the dense paths gain most:
         // fuzzy-core's planner tests); the mean settles a tick later.

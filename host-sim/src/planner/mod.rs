@@ -65,8 +65,10 @@ pub struct PlannerSettings {
     /// Share ρ of each axis' acceleration given to tangential acceleration
     /// (the rest is kept for changes of direction), `0 < ρ < 1`.
     pub tangential_share: f64,
-    /// Ticks the commanded position is averaged over (1 = off, up to 8):
-    /// corners blended within the chord tolerance and passed faster.
+    /// Ticks the commanded position is averaged over (1 = off, up to 8; 0,
+    /// the default: the most that fit the tolerance, tick and
+    /// acceleration, up to 4): corners blended within the chord tolerance
+    /// and passed faster.
     pub smoothing_ticks: u8,
     /// Lookahead buffer, points (one of [`SUPPORTED_BUFFERS`]).
     pub buffer_points: usize,
@@ -108,7 +110,14 @@ impl PlannerSettings {
             chord_tolerance_mm: CurvaturePerMm::from_f64(self.chord_tolerance_mm).0,
             tangential_share: Fx::saturating_from_num(self.tangential_share),
             smoothing_ticks: self.smoothing_ticks,
+            exact_path: false,
         }
+    }
+
+    /// The ticks averaged with these settings (`smoothing_ticks`, or what
+    /// 0 picks); 1 if they are invalid.
+    pub fn smoothing(&self) -> u8 {
+        self.motion_config().smoothing().unwrap_or(1)
     }
 
     /// Check the settings for the interpolation period `ts_s`.
