@@ -913,7 +913,13 @@ impl Interp {
     /// machine says it is.
     fn probe_done(&mut self, req: &ProbeMove, got: Result<Option<[f64; 3]>>) -> Result<()> {
         let line = req.line;
-        let got = got.map_err(|e| anyhow!("line {line}: G38.{}: {e:#}", req.kind.minor()))?;
+        let got = got.map_err(|e| {
+            if e.to_string().starts_with("line ") {
+                e
+            } else {
+                anyhow!("line {line}: G38.{}: {e:#}", req.kind.minor())
+            }
+        })?;
         let (tripped, at) = match got {
             Some(p) => (true, p),
             None => (false, req.target_mm),
