@@ -255,14 +255,14 @@ fn mpos(status: &str) -> [f64; 3] {
 }
 
 impl Rig {
-    /// Statuses until `done` holds for one; all of them, repeats dropped.
+    /// Statuses until `done` holds for one; those that moved, and that one.
     fn statuses_until(&mut self, timeout: Duration, done: impl Fn(&str) -> bool) -> Vec<String> {
         let t0 = Instant::now();
         let mut all: Vec<String> = Vec::new();
         loop {
             let s = self.status();
             let end = done(&s);
-            if all.last().map(|l| mpos(l)) != Some(mpos(&s)) {
+            if end || all.last().map(|l| mpos(l)) != Some(mpos(&s)) {
                 all.push(s);
             }
             if end {
@@ -318,4 +318,23 @@ fn a_jog_after_a_jog_cancel_starts_where_the_tool_stopped() {
     let furthest = seen.iter().map(|s| mpos(s)[0]).fold(0.0, f64::max);
     assert!(end[0] < 20.0, "the cancelled jog went on: {seen:?}");
     assert_eq!(end[0], furthest, "{seen:?}");
+}
+
+#[test]
+fn real_time_bytes_written_as_utf8_characters_act() {
+    // cncjs and bCNC write 0x85 and the overrides as strings: C2 85, C2 91.
+    let mut r = rig(1.0);
+    r.until(Duration::from_secs(1), |o| o.contains("Grbl"));
+    r.send("\u{91}".as_bytes());
+    let s = r.statuses_until(Duration::from_secs(2), |s| s.contains("Ov:"));
+    assert!(s.last().unwrap().contains("Ov:110,100,100"), "{s:?}");
+    r.send(b"$J=G91 X20 F1000\n");
+    let t0 = Instant::now();
+    while mpos(&r.status())[0] < 2.0 {
+        assert!(t0.elapsed() < Duration::from_secs(10));
+    }
+    r.send("\u{85}".as_bytes());
+    let seen = r.statuses_until(Duration::from_secs(10), |s| s.starts_with("<Idle"));
+    let end = mpos(seen.last().unwrap());
+    assert!(end[0] < 10.0, "the jog was not cancelled: {seen:?}");
 }
