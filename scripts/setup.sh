@@ -4,7 +4,9 @@
 # binutils for the firmware's size/cost/panic checks), GNU Octave with its
 # fuzzy-logic-toolkit for the cross-check of the exported controller.
 # With --tests (./scripts/test.sh) also fuzzylite, which only a test needs
-# (the FCL exports loaded by another tool); the main job does without it.
+# (the FCL exports loaded by another tool), and what the real senders'
+# tests need (tests/senders/run.sh): node with npm for cncjs, python3's
+# venv and tkinter for bCNC; the main job does without them.
 set -euo pipefail
 for_tests=0
 if [ "${1:-}" = "--tests" ]; then for_tests=1; fi
@@ -32,6 +34,10 @@ if command -v octave-cli >/dev/null && ! octave-cli --no-gui -q --eval 'pkg load
 fi
 if [ "$for_tests" = 1 ]; then
     command -v fuzzylite >/dev/null || missing+=(fuzzylite)
+    command -v node >/dev/null || missing+=(nodejs)
+    command -v npm >/dev/null || missing+=(npm)
+    python3 -c 'import ensurepip' 2>/dev/null || missing+=(python3-venv)
+    python3 -c 'import tkinter' 2>/dev/null || missing+=(python3-tk)
 fi
 if [ ${#missing[@]} -gt 0 ]; then
     log "apt-get install ${missing[*]}"

@@ -41,8 +41,9 @@ python3 firmware/scripts/check.py size
 step "firmware: instructions per point and per tick in QEMU -icount, <= +10 % on firmware/baseline/cost.txt"
 python3 firmware/scripts/check.py cost
 
-step "tests (including the firmware in QEMU: tests/tests/firmware_qemu.rs)"
-FUZZY_REQUIRE_OCTAVE=1 FUZZY_REQUIRE_FUZZYLITE=1 FUZZY_REQUIRE_QEMU=1 cargo test --workspace -q
+step "tests (including the firmware in QEMU: tests/tests/firmware_qemu.rs; cncjs and bCNC: tests/tests/senders.rs)"
+FUZZY_REQUIRE_OCTAVE=1 FUZZY_REQUIRE_FUZZYLITE=1 FUZZY_REQUIRE_QEMU=1 FUZZY_REQUIRE_SENDERS=1 \
+    cargo test --workspace -q
 
 step "fuzz: every target in fuzz/ for 60 s (cargo-fuzz on stable, --sanitizer none)"
 fuzz/run.sh 60

@@ -238,3 +238,103 @@ fn work_offsets_show_in_wco_and_in_the_parameters() {
     }
     assert!(s.contains("WCO:10.000,20.000,0.000"), "{s}");
 }
+
+fn mpos(status: &str) -> [f64; 3] {
+    let p: Vec<f64> = status
+        .split("MPos:")
+        .nth(1)
+        .and_then(|t| t.split('|').next())
+        .map(|t| {
+            t.trim_end_matches('>')
+                .split(',')
+                .map(|v| v.parse().unwrap())
+                .collect()
+        })
+        .unwrap();
+    [p[0], p[1], p[2]]
+}
+
+impl Rig {
+    /// Statuses until `done` holds for one; those that moved, and that one.
+    fn statuses_until(&mut self, timeout: Duration, done: impl Fn(&str) -> bool) -> Vec<String> {
+        let t0 = Instant::now();
+        let mut all: Vec<String> = Vec::new();
+        loop {
+            let s = self.status();
+            let end = done(&s);
+            if end || all.last().map(|l| mpos(l)) != Some(mpos(&s)) {
+                all.push(s);
+            }
+            if end {
+                return all;
+            }
+            assert!(t0.elapsed() < timeout, "timed out: {all:?}");
+        }
+    }
+}
+
+#[test]
+fn a_move_sent_right_after_a_soft_reset_starts_where_the_tool_stopped() {
+    let mut r = rig(1.0);
+    r.until(Duration::from_secs(1), |o| o.contains("Grbl"));
+    r.send(b"G21 G90 G1 X50 F3000\n");
+    let t0 = Instant::now();
+    while mpos(&r.status())[0] < 10.0 {
+        assert!(t0.elapsed() < Duration::from_secs(10));
+    }
+    // The reset stops the tool on its line a little further on; a
+    // sender's next line goes out at once.
+    r.send(&[0x18]);
+    r.send(b"G0 Y10\n");
+    let seen = r.statuses_until(Duration::from_secs(20), |s| {
+        s.starts_with("<Idle") && mpos(s)[1] == 10.0
+    });
+    let end = mpos(seen.last().unwrap());
+    let furthest = seen.iter().map(|s| mpos(s)[0]).fold(0.0, f64::max);
+    // G0 Y10 moves Y only: X stays where the reset stopped it.
+    assert_eq!(end[0], furthest, "{seen:?}");
+    for s in &seen {
+        let p = mpos(s);
+        assert!(p[1] == 0.0 || p[0] == end[0], "X moved with Y: {seen:?}");
+    }
+}
+
+#[test]
+fn a_jog_after_a_jog_cancel_starts_where_the_tool_stopped() {
+    let mut r = rig(1.0);
+    r.until(Duration::from_secs(1), |o| o.contains("Grbl"));
+    r.send(b"$J=G91 X20 F1000\n");
+    let t0 = Instant::now();
+    while mpos(&r.status())[0] < 2.0 {
+        assert!(t0.elapsed() < Duration::from_secs(10));
+    }
+    // Jog cancel and the next jog at once, as a sender's jog buttons do.
+    r.send(&[0x85]);
+    r.send(b"$J=G91 Y5 F1000\n");
+    let seen = r.statuses_until(Duration::from_secs(20), |s| {
+        s.starts_with("<Idle") && mpos(s)[1] == 5.0
+    });
+    let end = mpos(seen.last().unwrap());
+    let furthest = seen.iter().map(|s| mpos(s)[0]).fold(0.0, f64::max);
+    assert!(end[0] < 20.0, "the cancelled jog went on: {seen:?}");
+    assert_eq!(end[0], furthest, "{seen:?}");
+}
+
+#[test]
+fn real_time_bytes_written_as_utf8_characters_act() {
+    // cncjs and bCNC write 0x85 and the overrides as strings: C2 85, C2 91.
+    let mut r = rig(1.0);
+    r.until(Duration::from_secs(1), |o| o.contains("Grbl"));
+    r.send("\u{91}".as_bytes());
+    let s = r.statuses_until(Duration::from_secs(2), |s| s.contains("Ov:"));
+    assert!(s.last().unwrap().contains("Ov:110,100,100"), "{s:?}");
+    r.send(b"$J=G91 X20 F1000\n");
+    let t0 = Instant::now();
+    while mpos(&r.status())[0] < 2.0 {
+        assert!(t0.elapsed() < Duration::from_secs(10));
+    }
+    r.send("\u{85}".as_bytes());
+    let seen = r.statuses_until(Duration::from_secs(10), |s| s.starts_with("<Idle"));
+    let end = mpos(seen.last().unwrap());
+    assert!(end[0] < 10.0, "the jog was not cancelled: {seen:?}");
+}

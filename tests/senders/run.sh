@@ -22,6 +22,12 @@ log() { printf '[senders] %s\n' "$*" >&2; }
 
 install_cncjs() {
     local dir=$cache/node
+    local major
+    major=$(node -p 'process.versions.node.split(".")[0]')
+    if [ "$major" -lt 18 ]; then
+        log "cncjs 1.11 needs node >= 18; this is $(node --version)"
+        return 1
+    fi
     if cmp -s "$here/package-lock.json" "$dir/.installed-lock"; then return; fi
     log "npm ci (cncjs, socket.io-client) into $dir"
     rm -rf "$dir"

@@ -250,7 +250,10 @@ enum Comment {
 /// them: an em dash (E2 80 94) in a comment is a feed override −1 %, "Ą"
 /// (C4 84) a safety door. Senders write a line in one piece, so a real
 /// command never falls inside a character. [`Receiver::grbl_strict`] acts
-/// on them as Grbl does.
+/// on them as Grbl does. A real-time byte 0x80-0x9F written as a
+/// character, C2 and the byte (U+0080-U+009F, C1 controls, never text), is
+/// the command: cncjs and bCNC write them as strings, UTF-8 encoded, and
+/// Grbl acts on them by dropping the C2.
 #[derive(Clone, Debug)]
 pub struct Receiver {
     text: String,
@@ -262,6 +265,8 @@ pub struct Receiver {
     last_eol: Option<u8>,
     /// Continuation bytes still expected of a UTF-8 character.
     utf8_left: u8,
+    /// Its lead byte.
+    utf8_lead: u8,
     utf8: bool,
 }
 
@@ -283,6 +288,7 @@ impl Receiver {
             comment: Comment::None,
             last_eol: None,
             utf8_left: 0,
+            utf8_lead: 0,
             utf8: true,
         }
     }
@@ -320,6 +326,15 @@ impl Receiver {
     /// One byte: a real-time command, a finished line, or nothing yet.
     pub fn push(&mut self, b: u8) -> Option<Event> {
         if self.utf8 {
+            if self.utf8_left > 0 && self.utf8_lead == 0xC2 && b <= 0x9F {
+                if let Some(rt) = Realtime::from_byte(b) {
+                    self.utf8_left = 0;
+                    if self.raw.last() == Some(&0xC2) {
+                        self.raw.pop();
+                    }
+                    return Some(Event::Realtime(rt));
+                }
+            }
             if self.utf8_left > 0 && (0x80..=0xBF).contains(&b) {
                 self.utf8_left -= 1;
                 self.keep_raw(b);
@@ -335,6 +350,7 @@ impl Receiver {
         }
         if b >= 0x80 {
             if self.utf8 {
+                self.utf8_lead = b;
                 self.utf8_left = match b {
                     0xC2..=0xDF => 1,
                     0xE0..=0xEF => 2,
@@ -586,6 +602,17 @@ mod tests {
         );
         let ev = shape(events(&mut r, b"\xE2\x80\x85\x85\n"));
         assert_eq!(ev, vec![Event::Realtime(Realtime::JogCancel), line("")]);
+        // A real-time byte written as a character (U+0085, U+0091) is the
+        // command; a Latin-1 letter or NBSP (C2 A0) stays text.
+        let ev = shape(events(&mut r, "\u{85}G0 (\u{a0}°)\u{91}X1\n".as_bytes()));
+        assert_eq!(
+            ev,
+            vec![
+                Event::Realtime(Realtime::JogCancel),
+                Event::Realtime(Realtime::FeedOvrCoarsePlus),
+                line("G0X1")
+            ]
+        );
     }
 
     #[test]

@@ -195,6 +195,10 @@ pub struct Front {
     /// A feed hold asked for (`!`), until cycle start.
     held: bool,
     jog: bool,
+    /// Queued motion was dropped (soft reset, jog cancel): no line runs
+    /// until the tool is at rest and its position read back, so the next
+    /// move starts where it stopped.
+    resync: bool,
     homing: bool,
     alarm: Option<AlarmCode>,
     /// The alarm is reported; lines are refused until `$X`, `$H` or a
@@ -251,6 +255,7 @@ impl Front {
             check: false,
             held: false,
             jog: false,
+            resync: false,
             homing: false,
             alarm,
             locked: alarm.is_some(),
@@ -356,6 +361,10 @@ impl Front {
         match *m {
             DeviceMsg::Status(s) => {
                 self.status = s;
+                if self.resync && self.at_rest_now() {
+                    self.resync = false;
+                    self.sync_position();
+                }
                 if self.jog && at_rest(&s, self.credit_size) && !self.path.open {
                     self.jog = false;
                     self.sync_position();
@@ -389,6 +398,8 @@ impl Front {
     fn on_alarm(&mut self, code: AlarmCode) {
         self.alarm = Some(code);
         self.locked = true;
+        // `$X` reads the position back.
+        self.resync = false;
         self.report_alarm(code);
         self.path = PathState {
             here: self.status.pos_mm.map(link::batch::to_grid),
@@ -480,6 +491,7 @@ impl Front {
         self.path.open = false;
         self.path.restart = false;
         self.held = false;
+        self.resync = true;
         Ok(())
     }
 
@@ -657,7 +669,7 @@ impl Front {
 
     fn run_lines(&mut self) -> Result<(), Failure> {
         while let Some(line) = self.lines.front() {
-            if self.pause.is_some() || self.host_queue() > HOST_QUEUE_MAX {
+            if self.pause.is_some() || self.resync || self.host_queue() > HOST_QUEUE_MAX {
                 return Ok(());
             }
             // A line waiting for the machine blocks the ones after it.

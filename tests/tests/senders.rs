@@ -1,0 +1,103 @@
+//! Real Grbl senders against `fuzzy-send serve --sim`: cncjs (its server
+//! headless, through the pty) and bCNC (its sender classes, over TCP), run
+//! by `tests/senders/run.sh`; what each checks is listed in
+//! `sender/README.md`.
+//!
+//! They are installed from npm and PyPI into `target/senders/`, so these
+//! tests run only with `FUZZY_REQUIRE_SENDERS=1` (set by `scripts/test.sh`,
+//! whose set-up installs node, npm, python3-venv and python3-tk).
+
+use std::path::PathBuf;
+use std::process::{Command, Output, Stdio};
+use std::sync::OnceLock;
+
+use system_tests::firmware::repo_root;
+
+fn enabled() -> bool {
+    let on = std::env::var("FUZZY_REQUIRE_SENDERS").as_deref() == Ok("1");
+    if !on {
+        eprintln!("skipped: FUZZY_REQUIRE_SENDERS=1 runs the real senders");
+    }
+    on
+}
+
+/// The `fuzzy-send` binary in the test profile (its libraries are built
+/// already for the tests).
+fn fuzzy_send() -> PathBuf {
+    let out = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
+        .args([
+            "build",
+            "--profile",
+            "test",
+            "-p",
+            "sender",
+            "--bin",
+            "fuzzy-send",
+        ])
+        .arg("--message-format=json-render-diagnostics")
+        .current_dir(repo_root())
+        .stderr(Stdio::inherit())
+        .output()
+        .expect("run cargo to build fuzzy-send");
+    assert!(out.status.success(), "building fuzzy-send failed");
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .filter(|v| v["reason"] == "compiler-artifact" && v["target"]["name"] == "fuzzy-send")
+        .find_map(|v| v["executable"].as_str().map(PathBuf::from))
+        .expect("cargo reported the fuzzy-send executable")
+}
+
+/// `run.sh ARGS` within 10 minutes (installing included).
+fn run_sh(args: &[&str], bin: Option<&PathBuf>) -> Output {
+    let mut c = Command::new("timeout");
+    c.arg("600")
+        .arg(repo_root().join("tests/senders/run.sh"))
+        .args(args);
+    if let Some(b) = bin {
+        c.env("FUZZY_SEND", b);
+    }
+    c.output().expect("run tests/senders/run.sh")
+}
+
+/// Installed once, and the binary built once, for both tests.
+fn ready() -> &'static PathBuf {
+    static BIN: OnceLock<PathBuf> = OnceLock::new();
+    BIN.get_or_init(|| {
+        let out = run_sh(&["--install"], None);
+        assert!(
+            out.status.success(),
+            "installing the senders failed:\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        fuzzy_send()
+    })
+}
+
+fn check(sender: &str) {
+    if !enabled() {
+        return;
+    }
+    let out = run_sh(&[sender], Some(ready()));
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    println!("{text}");
+    assert!(
+        out.status.success(),
+        "{sender} against fuzzy-send serve:\n{text}"
+    );
+    assert!(text.contains(&format!("[{sender}] PASS")), "{text}");
+}
+
+#[test]
+fn cncjs_drives_the_grbl_front_through_the_pty() {
+    check("cncjs");
+}
+
+#[test]
+fn bcnc_drives_the_grbl_front_over_tcp() {
+    check("bcnc");
+}
