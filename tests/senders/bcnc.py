@@ -101,7 +101,7 @@ def run_job(app, name, gcode):
     app._runLines = len(paths) + 1
     app.queue.put((WAIT,))
     t0 = time.time()
-    until(f"{name} to end", 60, lambda: app._gcount >= app._runLines, app)
+    until(f"{name} to end", 120, lambda: app._gcount >= app._runLines, app)
     app.runEnded()
     log(f"{name}: {len(paths)} lines, every one answered, in {time.time() - t0:.1f} s")
 
@@ -116,7 +116,7 @@ def settled(app, what):
             last[0], last[1] = p, time.time()
         return p[0] == "Idle" and time.time() - last[1] > 0.5
 
-    until(what, 20, still, app)
+    until(what, 60, still, app)
 
 
 def main():
@@ -167,7 +167,7 @@ def main():
         # bCNC's jog buttons: `$J=G91 X2 F100000` (the feed clamped to the
         # machine's maximum, as Grbl does).
         app.mcontrol.jog("X2")
-        until("the jog", 10, lambda: mpos() != "1.500,-2.250,1.000", app)
+        until("the jog", 40, lambda: mpos() != "1.500,-2.250,1.000", app)
         settled(app, "the jog at rest")
         if mpos() != "3.500,-2.250,1.000":
             raise RuntimeError(f"after the jog: MPos {mpos()}, want 3.500,-2.250,1.000")
@@ -177,11 +177,11 @@ def main():
     def work_zero():
         app.sendGCode("G10 L20 P1 X0 Y0")
         app.sendGCode("$#")
-        until("[G54:] from $#", 5, lambda: CNC.vars.get("G54") == ["3.500", "-2.250", "0.000"], app)
-        until("WCO in a status report", 5, lambda: (CNC.vars["wcox"], CNC.vars["wcoy"]) == (3.5, -2.25), app)
+        until("[G54:] from $#", 30, lambda: CNC.vars.get("G54") == ["3.500", "-2.250", "0.000"], app)
+        until("WCO in a status report", 30, lambda: (CNC.vars["wcox"], CNC.vars["wcoy"]) == (3.5, -2.25), app)
         # bCNC computes WPos from the WCO it had when MPos came (WCO comes
         # after MPos in a report): the next report has it.
-        until("WPos 0,0", 2, lambda: (CNC.vars["wx"], CNC.vars["wy"]) == (0.0, 0.0), app)
+        until("WPos 0,0", 15, lambda: (CNC.vars["wx"], CNC.vars["wy"]) == (0.0, 0.0), app)
         log(f"G54 {CNC.vars['G54']}; WPos {CNC.vars['wx']},{CNC.vars['wy']},{CNC.vars['wz']}")
 
     # A probe step (bCNC's ProbePage G38.2, [PRB:] parsed into CNC.vars)

@@ -152,9 +152,9 @@ async function main() {
     });
     seen.workflow = 'idle';
     command('gcode:start');
-    await until(`${name} to start`, 5000, () => seen.workflow === 'running');
+    await until(`${name} to start`, 30000, () => seen.workflow === 'running');
     if (during) await during();
-    await until(`${name} to end`, 60000, () => seen.workflow === 'idle');
+    await until(`${name} to end`, 120000, () => seen.workflow === 'idle');
     const s = seen.sender;
     if (!s || s.received !== s.total || s.sent !== s.total) {
       throw new Error(`${name}: sender ${JSON.stringify(s)}`);
@@ -192,10 +192,10 @@ async function main() {
       for (let i = 0; i < 6; i++) lines.push(`X${i % 2 ? 2 : 30} Y${4 + i}`);
       lines.push('G0 X4 Y6 Z2');
       const s = await runJob('zigzag.nc', lines.join('\n'), async () => {
-        await until('motion', 10000, () => seen.state.activeState === 'Run' && seen.state.mpos.x !== '2.500');
+        await until('motion', 40000, () => seen.state.activeState === 'Run' && seen.state.mpos.x !== '2.500');
         command('feedhold');
-        const held = await until('Hold', 5000, () => seen.state.activeState === 'Hold' && seen.state);
-        await until('the hold to complete', 5000, () => seen.state.subState === 0 || seen.state.subState === '0');
+        const held = await until('Hold', 30000, () => seen.state.activeState === 'Hold' && seen.state);
+        await until('the hold to complete', 30000, () => seen.state.subState === 0 || seen.state.subState === '0');
         const at = pos(seen.state.mpos);
         await sleep(1000);
         if (pos(seen.state.mpos) !== at || seen.state.activeState !== 'Hold') {
@@ -203,28 +203,28 @@ async function main() {
         }
         log(`held at ${at} (${held.activeState}:${seen.state.subState})`);
         command('cyclestart');
-        await until('Run again', 5000, () => seen.state.activeState === 'Run');
+        await until('Run again', 30000, () => seen.state.activeState === 'Run');
       });
       expectPos('the end', s.mpos, '4.000,6.000,2.000');
     }],
     ['a jog', async () => {
       const before = seen.state.mpos;
       command('gcode', '$J=G91 X5 F1000');
-      await until('the jog', 10000, () => seen.state.mpos.x !== before.x);
+      await until('the jog', 40000, () => seen.state.mpos.x !== before.x);
       const s = await settled('the jog at rest');
       expectPos('after $J=G91 X5', s.mpos, '9.000,6.000,2.000');
     }],
     ['work zero on Z (G10 L20 P1 Z0), read back by $#', async () => {
       command('gcode', 'G10 L20 P1 Z0');
       command('gcode', '$#');
-      const g54 = await until('[G54:] from $#', 5000, () => {
+      const g54 = await until('[G54:] from $#', 30000, () => {
         const p = seen.settings && seen.settings.parameters && seen.settings.parameters.G54;
         return p && Number(p.z) !== 0 && p;
       });
       if (Number(g54.z) !== 2 || Number(g54.x) !== 0 || Number(g54.y) !== 0) {
         throw new Error(`G54 ${JSON.stringify(g54)}, want 0,0,2`);
       }
-      const s = await until('WCO in a status report', 5000, () => seen.state.wpos.z === '0.000' && seen.state);
+      const s = await until('WCO in a status report', 30000, () => seen.state.wpos.z === '0.000' && seen.state);
       log(`G54 ${g54.x},${g54.y},${g54.z}; WPos ${pos(s.wpos)}, MPos ${pos(s.mpos)}`);
       expectPos('work zero', s.mpos, '9.000,6.000,2.000');
     }],

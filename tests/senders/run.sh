@@ -114,7 +114,7 @@ run_cncjs() {
     HOME=$work/home "$cache/node/node_modules/.bin/cncjs" -H 127.0.0.1 -p "$http" \
         -c "$work/cncrc" >"$work/cncjs-server.log" 2>&1 &
     pids+=($!)
-    NODE_PATH=$cache/node/node_modules timeout 180 node "$here/cncjs.js" \
+    NODE_PATH=$cache/node/node_modules timeout 420 node "$here/cncjs.js" \
         --cncjs "http://127.0.0.1:$http" --port "$pty"
 }
 
@@ -124,7 +124,7 @@ run_bcnc() {
     local port
     port=$(sed -n 's/.*Grbl 1.1 front on tcp 127.0.0.1:\([0-9]*\).*/\1/p' "$work/serve-bcnc.log")
     mkdir -p "$work/home"
-    HOME=$work/home timeout 120 "$cache/bcnc-venv/bin/python" "$here/bcnc.py" \
+    HOME=$work/home timeout 420 "$cache/bcnc-venv/bin/python" "$here/bcnc.py" \
         --url "socket://127.0.0.1:$port"
 }
 

@@ -48,10 +48,10 @@ fn fuzzy_send() -> PathBuf {
         .expect("cargo reported the fuzzy-send executable")
 }
 
-/// `run.sh ARGS` within 10 minutes (installing included).
+/// `run.sh ARGS` within 15 minutes (installing included).
 fn run_sh(args: &[&str], bin: Option<&PathBuf>) -> Output {
     let mut c = Command::new("timeout");
-    c.arg("600")
+    c.arg("900")
         .arg(repo_root().join("tests/senders/run.sh"))
         .args(args);
     if let Some(b) = bin {
