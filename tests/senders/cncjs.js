@@ -241,7 +241,7 @@ async function main() {
       expectPos('after $J=G91 X5', s.mpos, '9.000,6.000,2.000');
     }],
     ['jog cancel, then a jog at once (continuous jogging); feed override', async () => {
-      command('gcode', '$J=G91 X20 F300');
+      command('gcode', '$J=G91 X20 F150');
       await until('the jog', 10000, () => Number(seen.state.mpos.x) > 9);
       command('jogCancel');
       command('gcode', '$J=G91 Y2 F1000');
