@@ -88,8 +88,9 @@ def mpos():
     return "{:.3f},{:.3f},{:.3f}".format(CNC.vars["mx"], CNC.vars["my"], CNC.vars["mz"])
 
 
-def run_job(app, name, gcode):
-    """Load and run a program as bCNC's Run button does; wait for its end."""
+def run_job(app, name, gcode, during=None):
+    """Load and run a program as bCNC's Run button does; wait for its end
+    (`during` acts while it runs)."""
     path = os.path.join(tempfile.mkdtemp(), name)
     with open(path, "w") as f:
         f.write(gcode)
@@ -101,6 +102,8 @@ def run_job(app, name, gcode):
     app._runLines = len(paths) + 1
     app.queue.put((WAIT,))
     t0 = time.time()
+    if during:
+        during()
     until(f"{name} to end", 120, lambda: app._gcount >= app._runLines, app)
     app.runEnded()
     log(f"{name}: {len(paths)} lines, every one answered, in {time.time() - t0:.1f} s")
@@ -161,6 +164,37 @@ def main():
         if mpos() != "1.500,-2.250,1.000":
             raise RuntimeError(f"the end: MPos {mpos()}, want 1.500,-2.250,1.000")
         log(f"the end: MPos {mpos()}")
+
+    @step
+    def feed_hold_and_resume():
+        def hold():
+            until("motion", 10, lambda: CNC.vars["state"] == "Run" and CNC.vars["mx"] > 2, app)
+            app.feedHold()
+            until("Hold:0", 5, lambda: CNC.vars["state"] == "Hold:0", app)
+            at = mpos()
+            t = time.time()
+            until("a second held", 5, lambda: time.time() - t > 1, app)
+            if mpos() != at or CNC.vars["state"] != "Hold:0":
+                raise RuntimeError(f"moved while held: {at} then {mpos()}")
+            log(f"held at {at}")
+            app.resume()
+
+        lines = ["G21 G90 G1 F1000"] + [f"X{2 if i % 2 else 30} Y{i - 2.25}" for i in range(6)]
+        run_job(app, "zigzag.nc", "\n".join(lines + ["G0 X1.5 Y-2.25"]) + "\n", hold)
+        settled(app, "the job at rest")
+        if mpos() != "1.500,-2.250,1.000":
+            raise RuntimeError(f"the end: MPos {mpos()}, want 1.500,-2.250,1.000")
+        log(f"the end: MPos {mpos()}")
+
+    @step
+    def feed_override():
+        # bCNC's override slider: 0x91 written as a character.
+        CNC.vars["_OvFeed"] = 110
+        CNC.vars["_OvChanged"] = True
+        until("Ov:110", 5, lambda: CNC.vars["OvFeed"] == 110, app)
+        CNC.vars["_OvFeed"] = 100
+        CNC.vars["_OvChanged"] = True
+        until("Ov:100", 5, lambda: CNC.vars["OvFeed"] == 100, app)
 
     @step
     def a_jog():

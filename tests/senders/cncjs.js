@@ -163,6 +163,15 @@ async function main() {
     return settled(`${name} at rest`);
   }
 
+  // A line through cncjs's feeder; MPos once the tool has moved and
+  // stopped.
+  async function move(line) {
+    const from = pos(seen.state.mpos);
+    command('gcode', line);
+    await until(line, 30000, () => pos(seen.state.mpos) !== from);
+    return (await settled(`${line} at rest`)).mpos;
+  }
+
   const steps = [
     ['a job: square, arc, dwell, spindle', async () => {
       const gcode = [
@@ -207,12 +216,48 @@ async function main() {
       });
       expectPos('the end', s.mpos, '4.000,6.000,2.000');
     }],
+    ['stop a job (cncjs stop: feed hold, then soft reset), then a move', async () => {
+      const lines = ['G21 G90 G1 F1000'];
+      for (let i = 0; i < 6; i++) lines.push(`X${i % 2 ? 4 : 30} Y${6 + i}`);
+      await new Promise((resolve, reject) => {
+        command('gcode:load', 'stop.nc', lines.join('\n'), {}, (err) => (err ? reject(new Error(`load: ${err}`)) : resolve()));
+      });
+      command('gcode:start');
+      await until('motion', 30000, () => seen.state.activeState === 'Run' && Number(seen.state.mpos.x) > 6);
+      command('gcode:stop', { force: true });
+      await until('the job to stop', 30000, () => seen.workflow === 'idle');
+      const stopped = await settled('the stop at rest');
+      if (Number(stopped.mpos.x) >= 30 || stopped.mpos.z !== '2.000') {
+        throw new Error(`stopped at ${pos(stopped.mpos)}`);
+      }
+      log(`stopped at ${pos(stopped.mpos)}`);
+      expectPos('after G0 X4 Y6', await move('G90 G0 X4 Y6'), '4.000,6.000,2.000');
+    }],
     ['a jog', async () => {
       const before = seen.state.mpos;
       command('gcode', '$J=G91 X5 F1000');
       await until('the jog', 40000, () => seen.state.mpos.x !== before.x);
       const s = await settled('the jog at rest');
       expectPos('after $J=G91 X5', s.mpos, '9.000,6.000,2.000');
+    }],
+    ['jog cancel, then a jog at once (continuous jogging); feed override', async () => {
+      command('gcode', '$J=G91 X20 F150');
+      await until('the jog', 30000, () => Number(seen.state.mpos.x) > 9);
+      command('jogCancel');
+      command('gcode', '$J=G91 Y2 F1000');
+      await until('the second jog', 30000, () => seen.state.mpos.y === '8.000');
+      const s = await settled('the jogs at rest');
+      const x = Number(s.mpos.x);
+      if (!(x > 9 && x < 29) || s.mpos.y !== '8.000' || s.mpos.z !== '2.000') {
+        throw new Error(`after the cancel and the second jog: MPos ${pos(s.mpos)}`);
+      }
+      log(`cancelled at X ${s.mpos.x}, then Y+2: MPos ${pos(s.mpos)}`);
+      // cncjs's override buttons (0x91, 0x90).
+      command('feedOverride', 10);
+      await until('Ov:110', 30000, () => seen.state.ov && seen.state.ov[0] === 110);
+      command('feedOverride', 0);
+      await until('Ov:100', 30000, () => seen.state.ov && seen.state.ov[0] === 100);
+      expectPos('after G0 X9 Y6', await move('G90 G0 X9 Y6'), '9.000,6.000,2.000');
     }],
     ['work zero on Z (G10 L20 P1 Z0), read back by $#', async () => {
       command('gcode', 'G10 L20 P1 Z0');

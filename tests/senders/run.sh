@@ -103,12 +103,14 @@ show_logs() {
     done
 }
 
+# In `f || failed=1`, set -e does not apply inside f: every step checks.
 run_cncjs() {
-    install_cncjs
+    install_cncjs || return 1
     local pty=$work/ttyFUZZY
-    serve cncjs --pty-link "$pty"
+    serve cncjs --pty-link "$pty" || return 1
     local http
     http=$(free_port)
+    [ -n "$http" ] || return 1
     echo '{}' >"$work/cncrc"
     mkdir -p "$work/home"
     HOME=$work/home "$cache/node/node_modules/.bin/cncjs" -H 127.0.0.1 -p "$http" \
@@ -119,10 +121,11 @@ run_cncjs() {
 }
 
 run_bcnc() {
-    install_bcnc
-    serve bcnc --no-pty --grbl-tcp 0
+    install_bcnc || return 1
+    serve bcnc --no-pty --grbl-tcp 0 || return 1
     local port
     port=$(sed -n 's/.*Grbl 1.1 front on tcp 127.0.0.1:\([0-9]*\).*/\1/p' "$work/serve-bcnc.log")
+    [ -n "$port" ] || return 1
     mkdir -p "$work/home"
     HOME=$work/home timeout 420 "$cache/bcnc-venv/bin/python" "$here/bcnc.py" \
         --url "socket://127.0.0.1:$port"
