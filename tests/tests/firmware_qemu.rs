@@ -360,10 +360,18 @@ fn feed_hold_decelerates_and_resume_continues() {
         }),
     );
     check_smooth(&stop, fw.hello(), F_MAX as f64);
-    let held = *stop.last().unwrap();
-    let ticks = held.ticks - stop[0].ticks;
+    let stopped = *stop.last().unwrap();
+    let ticks = stopped.ticks - stop[0].ticks;
     // 50 mm/s at 1000 mm/s² takes 50 ms: at least that many ticks.
     assert!(ticks >= 50, "stopped in {ticks} ticks");
+    // Corner smoothing averages the last few setpoints: the position
+    // settles within that window (a few ticks) after the speed reads 0.
+    std::thread::sleep(Duration::from_millis(50));
+    let held = fw.status();
+    assert!(
+        (pos(&held)[0] - pos(&stopped)[0]).abs() < 1e-3,
+        "settled within a micrometre of where the speed reached 0"
+    );
     std::thread::sleep(Duration::from_millis(300));
     let still = fw.status();
     assert_eq!(still.pos_mm, held.pos_mm, "held still");
