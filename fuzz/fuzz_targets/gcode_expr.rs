@@ -56,7 +56,7 @@ fuzz_target!(|data: &[u8]| {
                     let _ = a.eval(&Fixed);
                 }
             }
-            Stmt::Percent => {}
+            Stmt::Percent | Stmt::Skipped(_) => {}
         }
     }
 });
