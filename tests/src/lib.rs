@@ -5,5 +5,6 @@
 //! [`planned`] recomputes the firmware's planned motion on the host from
 //! what the firmware reports, and checks it.
 
+pub mod binaries;
 pub mod firmware;
 pub mod planned;

@@ -38,9 +38,11 @@
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Stdio};
-use std::sync::{Mutex, OnceLock};
+use std::sync::Mutex;
+
 use std::thread;
 use std::time::{Duration, Instant};
+use system_tests::binaries::fuzzy_send;
 
 use controller::settings::MOTION_CONFIG;
 use fuzzy_core::scheduler::PathPoint;
@@ -53,37 +55,6 @@ use system_tests::planned;
 /// One QEMU test at a time: each QEMU takes a core, and `-icount` slows
 /// the guest's clock on a loaded host.
 static QEMU_SLOT: Mutex<()> = Mutex::new(());
-
-/// The `fuzzy-send` binary, built once (the test profile: the libraries
-/// it links are already built for this test).
-fn fuzzy_send() -> PathBuf {
-    static BIN: OnceLock<PathBuf> = OnceLock::new();
-    BIN.get_or_init(|| {
-        let out = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
-            .args([
-                "build",
-                "--profile",
-                "test",
-                "-p",
-                "sender",
-                "--bin",
-                "fuzzy-send",
-            ])
-            .arg("--message-format=json-render-diagnostics")
-            .current_dir(repo_root())
-            .stderr(Stdio::inherit())
-            .output()
-            .expect("run cargo to build fuzzy-send");
-        assert!(out.status.success(), "building fuzzy-send failed");
-        let text = String::from_utf8_lossy(&out.stdout);
-        text.lines()
-            .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
-            .filter(|v| v["reason"] == "compiler-artifact" && v["target"]["name"] == "fuzzy-send")
-            .find_map(|v| v["executable"].as_str().map(PathBuf::from))
-            .expect("cargo reported the fuzzy-send executable")
-    })
-    .clone()
-}
 
 /// The firmware in QEMU, serving USART1 on a Unix socket (the guest
 /// starts when the first client connects). Killed on drop.

@@ -8,7 +8,7 @@
 //! whose set-up installs node, npm, python3-venv and python3-tk).
 
 use std::path::PathBuf;
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Output};
 use std::sync::OnceLock;
 
 use system_tests::firmware::repo_root;
@@ -19,33 +19,6 @@ fn enabled() -> bool {
         eprintln!("skipped: FUZZY_REQUIRE_SENDERS=1 runs the real senders");
     }
     on
-}
-
-/// The `fuzzy-send` binary in the test profile (its libraries are built
-/// already for the tests).
-fn fuzzy_send() -> PathBuf {
-    let out = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
-        .args([
-            "build",
-            "--profile",
-            "test",
-            "-p",
-            "sender",
-            "--bin",
-            "fuzzy-send",
-        ])
-        .arg("--message-format=json-render-diagnostics")
-        .current_dir(repo_root())
-        .stderr(Stdio::inherit())
-        .output()
-        .expect("run cargo to build fuzzy-send");
-    assert!(out.status.success(), "building fuzzy-send failed");
-    String::from_utf8_lossy(&out.stdout)
-        .lines()
-        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
-        .filter(|v| v["reason"] == "compiler-artifact" && v["target"]["name"] == "fuzzy-send")
-        .find_map(|v| v["executable"].as_str().map(PathBuf::from))
-        .expect("cargo reported the fuzzy-send executable")
 }
 
 /// `run.sh ARGS` within 15 minutes (installing included).
@@ -70,7 +43,7 @@ fn ready() -> &'static PathBuf {
             "installing the senders failed:\n{}",
             String::from_utf8_lossy(&out.stderr)
         );
-        fuzzy_send()
+        system_tests::binaries::fuzzy_send()
     })
 }
 
