@@ -127,6 +127,8 @@ pub struct Latch {
     inputs: AtomicU8,
     config: AtomicU32,
     shared: Mutex<Cell<Shared>>,
+    /// A probing move: armed by the background, tripped by the tick.
+    pub probe: crate::probe::ProbeLatch,
 }
 
 impl Default for Latch {
@@ -150,6 +152,7 @@ impl Latch {
                 watch: None,
                 homing: false,
             })),
+            probe: crate::probe::ProbeLatch::new(),
         }
     }
 

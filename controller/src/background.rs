@@ -36,7 +36,9 @@
 //!    command ends the path and waits until the tool is at rest at its end
 //!    (the ring executed), then takes effect (`DeviceMsg::Applied`), and a
 //!    spin-up delay or a dwell (`MachineCmd::Dwell`, G4) holds the next
-//!    path back ([`crate::spindle`]);
+//!    path back ([`crate::spindle`]); a probing move ends the path
+//!    likewise, then runs as a path of its own and stops where the probe
+//!    trips ([`crate::probe`], `DeviceMsg::Probed`);
 //! 5. link silence and loss: a link silent for `$209` while the tool
 //!    moves is a feed hold (the host is gone: what it queued must not run
 //!    on without it); with the path open and the tool at rest (stopped for
@@ -70,6 +72,9 @@ use crate::session::{BackgroundInfo, DeviceLink, Taken};
 use crate::settings::{Plan, CMD_QUEUE, SETPOINT_RING};
 use crate::spindle::{MachineOutputs, Spindle};
 use crate::steps::StepSettings;
+
+mod probe_cycle;
+use probe_cycle::Probing;
 
 /// Something worth a log line (the background cannot log by itself).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -211,6 +216,8 @@ pub struct Background<'a> {
     /// The generated tick from which the tool has been at rest on an open
     /// path (stopped for want of points, or held).
     rest_since: Option<u32>,
+    /// A probing move in progress (`crate::probe`).
+    probe: Option<Probing>,
 }
 
 impl<'a> Background<'a> {
@@ -246,6 +253,7 @@ impl<'a> Background<'a> {
             step_settings: None,
             silence_hold: false,
             rest_since: None,
+            probe: None,
         })
     }
 
@@ -432,6 +440,7 @@ impl<'a> Background<'a> {
             && self.planning.path_ended()
             && matches!(self.planning.state(), MotionState::Done | MotionState::Idle)
             && self.waiting.is_none()
+            && self.probe.is_none()
             && self.abort.is_none()
             && self.homing.is_none()
             && reached(self.planning.generated(), self.hold_until)
@@ -548,13 +557,19 @@ impl<'a> Background<'a> {
             self.feeder.abort();
             self.abort = None;
             self.waiting = None;
+            self.probe = None;
+            self.latch.probe.disarm();
             self.hold_until = 0;
             self.homing = None;
             self.homing_done = false;
             self.latch.set_homing(false, None);
             self.spindle.stop();
             io.outputs(self.spindle.outputs(&self.config));
-            if code != AlarmCode::LinkLoss {
+            let at_rest = matches!(
+                code,
+                AlarmCode::LinkLoss | AlarmCode::ProbeFailInitial | AlarmCode::ProbeFailContact
+            );
+            if !at_rest {
                 // Stopped without deceleration: the position may be lost.
                 self.homed = 0;
             }
@@ -700,11 +715,17 @@ impl<'a> Background<'a> {
             let (c, p) = self.abort.unwrap_or((0, 0));
             self.abort = Some((c, p.wrapping_add(points)));
             self.waiting = None;
+            self.probe = None;
+            self.latch.probe.disarm();
             let input = self.planning.abort();
             report(link, input, notice);
         }
         if room {
             let mut c = link.lock(|l| core::mem::take(&mut l.controls));
+            if self.probe.is_some_and(|p| p.stopping()) {
+                // The probe's stop is not the host's to release.
+                c.hold = c.hold.filter(|h| *h);
+            }
             self.force.apply(&mut c);
             if c != Controls::default() {
                 for input in self.planning.apply(c).into_iter().flatten() {
@@ -750,6 +771,8 @@ impl<'a> Background<'a> {
                 notice(Notice::Aborted);
                 busy = true;
             }
+        } else if self.probe.is_some() {
+            busy |= self.probe_pass(room, link, notice);
         } else if let Some(w) = self.waiting {
             busy |= self.machine_command(w, room, io, notice, link);
         } else if room && self.planning.waiting() {
@@ -764,6 +787,22 @@ impl<'a> Background<'a> {
                         busy = true;
                         if let Cmd::Machine { seq, cmd } = cmd {
                             self.waiting = Some(Waiting { seq, cmd, at: None });
+                        }
+                        if let Cmd::Probe {
+                            target,
+                            feed,
+                            seq,
+                            toward,
+                            error_if_missed,
+                        } = cmd
+                        {
+                            self.probe = Some(Probing::new(crate::probe::ProbeCmd {
+                                target,
+                                feed,
+                                seq,
+                                toward,
+                                error_if_missed,
+                            }));
                         }
                         self.feeder.command(cmd)
                     }

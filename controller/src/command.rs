@@ -32,6 +32,33 @@ pub enum Cmd {
         /// What.
         cmd: link::MachineCmd,
     },
+    /// A probing move ([`crate::probe::ProbeCmd`], its fields inline so
+    /// that the command keeps its size): ends the open path, runs once the
+    /// tool is at rest at its end.
+    Probe {
+        /// The end of the move.
+        target: Point3Mm,
+        /// Its feed.
+        feed: FeedMmPerMin,
+        /// Its sequence number.
+        seq: u32,
+        /// Stop on the input becoming active, else inactive.
+        toward: bool,
+        /// No trip by the target is an alarm.
+        error_if_missed: bool,
+    },
+}
+
+impl From<crate::probe::ProbeCmd> for Cmd {
+    fn from(p: crate::probe::ProbeCmd) -> Cmd {
+        Cmd::Probe {
+            target: p.target,
+            feed: p.feed,
+            seq: p.seq,
+            toward: p.toward,
+            error_if_missed: p.error_if_missed,
+        }
+    }
 }
 
 impl Cmd {
@@ -112,6 +139,11 @@ mod tests {
             panic!("not a point")
         };
         assert_eq!(feed_cap, -1, "no cap");
+    }
+
+    #[test]
+    fn a_command_stays_within_its_queue_slot() {
+        assert!(core::mem::size_of::<Cmd>() <= 40);
     }
 
     #[test]

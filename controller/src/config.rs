@@ -126,10 +126,11 @@ pub enum Key {
     Smoothing,
     LinkSilence,
     PathToleranceMax,
+    ProbeInvert,
 }
 
 /// How many settings there are.
-pub const COUNT: usize = 43;
+pub const COUNT: usize = 44;
 
 const fn s(
     id: u16,
@@ -398,6 +399,14 @@ pub const SETTINGS: [SettingInfo; COUNT] = [
         (1, 1_000_000),
         Apply::Now,
     ),
+    s(
+        6,
+        "probe input invert (0: closing to ground is active; 1: opening)",
+        "bool",
+        0,
+        (0, 1),
+        Apply::Now,
+    ),
 ];
 
 /// The defaults, in [`Key`] order (the planner's from the build-time
@@ -446,6 +455,7 @@ const DEFAULTS: [i64; COUNT] = [
     SMOOTHING_TICKS as i64,
     1000, // a feed hold after 1 s of link silence while moving
     PATH_TOLERANCE_MAX_NM as i64,
+    0, // probe: closing to ground is active (Grbl's $6 = 0)
 ];
 
 /// The polarity mask of the build-time step settings (`dir`: the
@@ -752,10 +762,12 @@ impl Config {
     }
 
     /// The input polarity: bit 0 e-stop, bits 1..=6 the limit switches (X
-    /// min, X max, Y min, Y max, Z min, Z max), set where the input is
-    /// active low.
+    /// min, X max, Y min, Y max, Z min, Z max), bit 7 the probe (`$6`), set
+    /// where the input is active low.
     pub fn input_invert(&self) -> u8 {
-        (self.get(Key::EStopInvert) as u8 & 1) | ((self.get(Key::LimitInvert) as u8 & 63) << 1)
+        (self.get(Key::EStopInvert) as u8 & 1)
+            | ((self.get(Key::LimitInvert) as u8 & 63) << 1)
+            | ((self.get(Key::ProbeInvert) as u8 & 1) << 7)
     }
 }
 

@@ -58,9 +58,9 @@ impl Feeder {
                 feed_cap: (feed_cap >= 0).then_some(FeedMmPerMin(I32F32::from_bits(feed_cap))),
                 tag,
             }),
-            // A machine command ends the path (the background holds the
-            // command until the motion reaches it).
-            Cmd::EndPath | Cmd::Machine { .. } => {
+            // A machine command or a probing move ends the path (the
+            // background holds it until the motion reaches it).
+            Cmd::EndPath | Cmd::Machine { .. } | Cmd::Probe { .. } => {
                 self.sched.finish();
                 self.draining = true;
                 Ok(None)

@@ -9,7 +9,10 @@
 //!    with the polarity setting and debounced: the e-stop counts as active
 //!    at its first active sample (a noise pulse can stop the machine, never
 //!    delay a stop) and as released after `debounce` inactive samples in a
-//!    row; a limit switch changes after `debounce` equal samples in a row;
+//!    row; a limit switch and the probe change after `debounce` equal
+//!    samples in a row; a probing move armed, the probe at its trip level
+//!    latches where the steps were at the first sample of the change
+//!    ([`crate::probe`]);
 //! 2. an active e-stop trips [`AlarmCode::EStopInput`]; with hard limits on
 //!    (and no homing cycle running), a limit switch becoming active trips
 //!    [`AlarmCode::HardLimit`] (on the change, as Grbl's pin-change
@@ -35,6 +38,7 @@ use link::AlarmCode;
 
 use crate::alarm::{limit_bit, Latch, Phase, ESTOP};
 use crate::planning::Setpoint;
+use crate::probe::{ProbeWatch, PROBE};
 use crate::ring::Consumer;
 use crate::settings::SETPOINT_RING;
 use crate::stepper::StepOutput;
@@ -112,6 +116,8 @@ pub struct Guard {
     pub stopped_ticks: u32,
     /// Setpoints drained unexecuted.
     pub drained: u32,
+    /// The probe: where the steps were when it changed.
+    probe: ProbeWatch,
 }
 
 impl Guard {
@@ -126,6 +132,7 @@ impl Guard {
             lag_seen: 0,
             stopped_ticks: 0,
             drained: 0,
+            probe: ProbeWatch::new(),
         }
     }
 
@@ -139,7 +146,7 @@ impl Guard {
     fn sample(&mut self, raw: u8, invert: u8, debounce: u8) -> u8 {
         let level = raw ^ invert;
         let mut rose = 0;
-        for (bit, count) in self.counts.iter_mut().enumerate().take(7) {
+        for (bit, count) in self.counts.iter_mut().enumerate() {
             let m = 1u8 << bit;
             let now = level & m != 0;
             let was = self.active & m != 0;
@@ -175,6 +182,9 @@ impl Guard {
         let cfg = latch.guard_config();
         let rose = self.sample(raw, cfg.invert, cfg.debounce);
         latch.set_inputs(self.active);
+        let probe_level = (raw ^ cfg.invert) & PROBE != 0;
+        self.probe
+            .sample(probe_level, self.active & PROBE != 0, &latch.probe);
         if self.active & ESTOP != 0 {
             latch.trip(AlarmCode::EStopInput);
         }
@@ -233,6 +243,7 @@ impl Guard {
                 exec.steps = out.report();
             }
         }
+        self.probe.executed(exec.now.pos);
         latch.phase() != Phase::Alarm
     }
 

@@ -27,6 +27,7 @@
 //! | [`alarm`] | the alarm state and the tick's stops, shared by every task (lock-free) |
 //! | [`guard`] | the tick's safety work: inputs debounced, e-stop and hard limits, the stop within the tick |
 //! | [`homing`] | the homing cycle: seek, back off, locate, pull off, machine coordinates |
+//! | [`probe`] | the probe input and the probing move (G38.2-.5): the trip latched where the steps were |
 //! | [`spindle`] | spindle and coolant commands of the path stream, PWM duty |
 //! | [`background`] | one pass of the firmware's idle loop |
 //! | [`ring`] | lock-free single-producer single-consumer ring, panic-free |
@@ -54,6 +55,7 @@ pub mod feeder;
 pub mod guard;
 pub mod homing;
 pub mod planning;
+pub mod probe;
 pub mod replay;
 pub mod ring;
 pub mod session;

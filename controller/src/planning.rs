@@ -331,6 +331,32 @@ impl<'a> Planning<'a> {
         });
     }
 
+    /// A path of one straight move to `pos` at `feed` (a probing move,
+    /// `crate::probe`; call at rest with nothing waiting): the move's
+    /// point, reported as point 1 of its path with sequence number `seq`,
+    /// then the path's end. What the planner took, in order.
+    pub fn single_move(
+        &mut self,
+        pos: Point3Mm,
+        feed: FeedMmPerMin,
+        seq: u32,
+    ) -> Result<[Option<PlanInput>; 2], Dropped> {
+        self.pending = Some(Pending {
+            point: MotionPoint {
+                pos,
+                feed,
+                curvature: fuzzy_core::units::CurvaturePerMm::ZERO,
+            },
+            seq,
+            index: 1,
+        });
+        let point = self.push_pending()?;
+        if self.pending.take().is_some() {
+            return Err(Dropped(MotionError::Full));
+        }
+        Ok([point, Some(self.end_path())])
+    }
+
     /// Push the waiting point if there is room: what went in. A point of a
     /// new path waits until the previous one is done, then the planner
     /// restarts where the tool is.

@@ -46,8 +46,9 @@
 //!   are refused until every axis of the homing passes is homed
 //!   (`NotHomed`), and during a homing cycle (`Busy`); with soft limits on
 //!   (`$20`) a point outside the travel is refused on arrival
-//!   (`OutOfTravel`, a batch all or nothing); `Machine` commands (spindle,
-//!   coolant) are sequenced and queued like points;
+//!   (`OutOfTravel`, a batch all or nothing; a probe's target likewise);
+//!   `Machine` commands (spindle, coolant) and `Probe` are sequenced and
+//!   queued like points;
 //! - settings (`GetSetting`, `SetSetting`, [`crate::config`]): a write is
 //!   taken only with nothing moving: at rest with nothing queued, or in an
 //!   alarm the background has carried out (the tick stopped, everything
@@ -70,6 +71,7 @@ use crate::alarm::{Latch, Phase, ESTOP};
 use crate::command::{config_from_link, point_from_link, Cmd};
 use crate::config::{Apply, Config, Key, SettingError};
 use crate::controls::{force_from_link, Controls};
+use crate::probe::probe_from_link;
 use crate::ring::{Consumer, Producer};
 use crate::settings::{Plan, CMD_CREDIT, CMD_QUEUE, CREDIT_BATCH, PLANNER_POINTS, TX_BUFFER};
 use crate::spindle::Spindle;
@@ -541,6 +543,7 @@ impl DeviceLink {
                 | HostMsg::Points { .. }
                 | HostMsg::EndPath { .. }
                 | HostMsg::Machine { .. }
+                | HostMsg::Probe { .. }
         );
         if let Some(code) = path.then(|| self.path_refusal()).flatten() {
             return Err(code);
@@ -666,6 +669,19 @@ impl DeviceLink {
                 )
             }
             HostMsg::EndPath { seq } => (seq, Some(Cmd::EndPath)),
+            HostMsg::Probe {
+                seq,
+                target_mm,
+                feed_mm_per_min,
+                toward,
+                error_if_missed,
+            } => {
+                if !self.config.within_travel(target_mm) && !before(seq, self.session.next_seq) {
+                    return Err(ErrorCode::OutOfTravel);
+                }
+                let p = probe_from_link(seq, target_mm, feed_mm_per_min, toward, error_if_missed);
+                (seq, p.map(Cmd::from))
+            }
         };
         self.session.accept(seq, cmd, queue)?;
         Ok(Reply::Ack)

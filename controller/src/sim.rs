@@ -6,8 +6,8 @@
 //! [`VirtualDevice::run_tick`] does what a firmware tick period does: the
 //! background until it has nothing left to do (on the target it runs many
 //! passes per tick), then the tick itself: the inputs sampled (a simulated
-//! e-stop and limit switches at positions of the simulated axes, in
-//! steps), [`Guard::tick`] and the executor. The axes are the firmware's
+//! e-stop, limit switches at positions of the simulated axes, in steps, and
+//! a probe touching a [`ProbeSurface`]), [`Guard::tick`] and the executor. The axes are the firmware's
 //! step generator run by the tick ([`SoftSteps`], as under QEMU) with the
 //! settings' steps/mm and step timing: homing moves, stops and switches
 //! go through the same step engine as on a board.
@@ -22,6 +22,7 @@ use crate::command::Cmd;
 use crate::config::Config;
 use crate::guard::{switch_input, Guard};
 use crate::planning::Setpoint;
+use crate::probe::PROBE;
 use crate::ring::{Consumer, Producer, Ring};
 use crate::session::DeviceLink;
 use crate::settings::{Plan, CMD_QUEUE, SETPOINT_RING};
@@ -163,6 +164,73 @@ pub struct SimSwitch {
     pub at_steps: i64,
 }
 
+/// What the simulated probe touches: the tool at or below it (machine
+/// coordinates) makes the probe input active.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ProbeSurface {
+    /// The plane z = `z_mm` (where there is no map, or outside it).
+    pub z_mm: f64,
+    /// Heights on a grid over the plane, if any.
+    pub map: Option<HeightMap>,
+}
+
+/// Heights on a rectangular grid, bilinear between its nodes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HeightMap {
+    /// The first node's x and y, mm.
+    pub origin_mm: [f64; 2],
+    /// The spacing of the nodes in x and y, mm (positive).
+    pub step_mm: [f64; 2],
+    /// Nodes along x.
+    pub nx: usize,
+    /// The heights, mm, row by row (`nx` a row, rows along y).
+    pub z_mm: Vec<f64>,
+}
+
+impl HeightMap {
+    /// The height at `(x, y)`, bilinear; `None` outside the grid.
+    pub fn height(&self, x: f64, y: f64) -> Option<f64> {
+        let nx = self.nx;
+        let ny = self.z_mm.len().checked_div(nx)?;
+        let u = (x - self.origin_mm[0]) / self.step_mm[0];
+        let v = (y - self.origin_mm[1]) / self.step_mm[1];
+        let (umax, vmax) = ((nx.max(1) - 1) as f64, (ny.max(1) - 1) as f64);
+        if !(0.0..=umax).contains(&u) || !(0.0..=vmax).contains(&v) {
+            return None;
+        }
+        let (i, j) = (
+            (u as usize).min(nx.saturating_sub(2)),
+            (v as usize).min(ny.saturating_sub(2)),
+        );
+        let (fu, fv) = (u - i as f64, v - j as f64);
+        let z = |a: usize, b: usize| self.z_mm.get(b * nx + a).copied().unwrap_or(0.0);
+        let (i1, j1) = ((i + 1).min(nx - 1), (j + 1).min(ny - 1));
+        let bottom = z(i, j) * (1.0 - fu) + z(i1, j) * fu;
+        let top = z(i, j1) * (1.0 - fu) + z(i1, j1) * fu;
+        Some(bottom * (1.0 - fv) + top * fv)
+    }
+}
+
+impl ProbeSurface {
+    /// The plane z = `z_mm`.
+    pub fn plane(z_mm: f64) -> Self {
+        ProbeSurface { z_mm, map: None }
+    }
+
+    /// The surface's height at `(x, y)`, mm.
+    pub fn height(&self, x: f64, y: f64) -> f64 {
+        self.map
+            .as_ref()
+            .and_then(|m| m.height(x, y))
+            .unwrap_or(self.z_mm)
+    }
+
+    /// Whether a tool at `pos_mm` touches it (at or below).
+    pub fn touches(&self, pos_mm: [f64; 3]) -> bool {
+        pos_mm[2] <= self.height(pos_mm[0], pos_mm[1])
+    }
+}
+
 /// The spindle, coolant and store of the virtual machine.
 #[derive(Clone, Debug, Default)]
 pub struct SimMachine {
@@ -230,6 +298,8 @@ pub struct VirtualDevice {
     pub estop: bool,
     /// Limit switches on the axes.
     pub switches: Vec<SimSwitch>,
+    /// What the probe touches (none: the probe input stays inactive).
+    pub probe: Option<ProbeSurface>,
     /// The drivers were enabled at the last tick.
     pub drivers_enabled: bool,
     /// Step settings from the background, for the tick.
@@ -285,6 +355,7 @@ impl VirtualDevice {
             },
             estop: false,
             switches: Vec::new(),
+            probe: None,
             drivers_enabled: true,
             step_settings: None,
             keep: None,
@@ -367,7 +438,23 @@ impl VirtualDevice {
         for s in &self.switches {
             active |= switch_input(s.axis, s.max, steps[s.axis], s.at_steps);
         }
+        if let Some(surface) = &self.probe {
+            if surface.touches(self.tool_mm()) {
+                active |= PROBE;
+            }
+        }
         active ^ self.latch.guard_config().invert
+    }
+
+    /// Where the tool is, machine coordinates, mm: the steps emitted, with
+    /// the offset homing set.
+    pub fn tool_mm(&self) -> [f64; 3] {
+        let (steps, offset) = (self.steps(), self.latch.offset());
+        let config = self.background.config();
+        core::array::from_fn(|a| {
+            let spm = config.steps_per_mm(a).0 as f64 / 65536.0;
+            steps[a] as f64 / spm + offset[a] as f64 / 4294967296.0
+        })
     }
 
     /// The tick interrupt.

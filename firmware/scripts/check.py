@@ -39,6 +39,11 @@ STEPS3X_KEYS = ["batch_mean", "batch_worst", "per_step", "engine_permille"]
 QEMU_TIMEOUT_S = 300
 
 
+def out_dir(profile):
+    """Where cargo puts the images of a profile."""
+    return os.path.join(FW, "target", "thumbv7em-none-eabihf", profile)
+
+
 def llvm_tool(name):
     sysroot = subprocess.check_output(["rustc", "--print", "sysroot"], text=True).strip()
     host = re.search(r"host: (\S+)", subprocess.check_output(["rustc", "-vV"], text=True)).group(1)
@@ -111,15 +116,15 @@ def board_size():
     env.pop("CARGO_TARGET_DIR", None)
     over = False
     try:
-        for feat in ["board", "usb"]:
-            subprocess.run(["cargo", "build", "--release", "-q", "--no-default-features", "--features", feat],
+        for feat, profile in [("board", "release"), ("usb", "small")]:
+            subprocess.run(["cargo", "build", "--profile", profile, "-q", "--no-default-features", "--features", feat],
                            cwd=FW, env=env, check=True)
-            out = subprocess.check_output([llvm_tool("llvm-size"), os.path.join(REL, "fuzzy-firmware")],
+            out = subprocess.check_output([llvm_tool("llvm-size"), os.path.join(out_dir(profile), "fuzzy-firmware")],
                                           text=True).split("\n")[1].split()
             text, data, bss = int(out[0]), int(out[1]), int(out[2])
             o = text + data > FLASH_BUDGET or data + bss > RAM_BUDGET
             over |= o
-            print(f"{feat} image (--features {feat}): flash {text + data}, static RAM {data + bss}{'  OVER BUDGET' if o else ''}")
+            print(f"{feat} image (--profile {profile} --features {feat}): flash {text + data}, static RAM {data + bss}{'  OVER BUDGET' if o else ''}")
     finally:
         subprocess.run(["cargo", "build", "--release", "-q"], cwd=FW, env=env, check=True)
     return over
@@ -162,17 +167,17 @@ def cost(bless):
 
 def panic(bless):
     """The images users run: the QEMU image, the board image (--features
-    board, defmt over RTT) and the USB one (--features usb), each against
+    board, defmt over RTT) and the USB one (--profile small --features usb), each against
     its own list."""
     failed = panic_image(bless, [], "panic-sites.txt", "release image")
     failed |= panic_image(bless, ["--no-default-features", "--features", "board"],
                           "panic-sites-board.txt", "board image (--features board)")
     failed |= panic_image(bless, ["--no-default-features", "--features", "usb"],
-                          "panic-sites-usb.txt", "USB image (--features usb)")
+                          "panic-sites-usb.txt", "USB image (--profile small --features usb)", "small")
     return 1 if failed else 0
 
 
-def panic_image(bless, features, baseline, label):
+def panic_image(bless, features, baseline, label, profile="release"):
     """Link the image with a panic handler that cannot link (feature
     panic-never). If that fails, list every call into a core panic function
     in the normal image with its source location, and compare with
@@ -186,22 +191,22 @@ def panic_image(bless, features, baseline, label):
         flags[i] += ",panic-never"
     else:
         flags += ["--features", "panic-never"]
-    res = subprocess.run(["cargo", "build", "--release", "--bin", "fuzzy-firmware"] + flags,
+    res = subprocess.run(["cargo", "build", "--profile", profile, "--bin", "fuzzy-firmware"] + flags,
                          cwd=FW, env=env, capture_output=True, text=True)
     if res.returncode != 0:
         # The normal image of the same features, for the site listing.
-        subprocess.run(["cargo", "build", "--release", "-q", "--bin", "fuzzy-firmware"] + list(features),
+        subprocess.run(["cargo", "build", "--profile", profile, "-q", "--bin", "fuzzy-firmware"] + list(features),
                        cwd=FW, env=env, check=True)
     path = os.path.join(BASE, baseline)
     known = [l.strip() for l in open(path) if l.strip() and not l.startswith("#")] if os.path.exists(path) else []
     try:
-        return panic_sites(bless, res, path, known, label)
+        return panic_sites(bless, res, path, known, label, out_dir(profile))
     finally:
         # Back to the default image (only the firmware crate itself rebuilds).
         subprocess.run(["cargo", "build", "--release", "-q"], cwd=FW, env=env, check=True)
 
 
-def panic_sites(bless, res, path, known, label):
+def panic_sites(bless, res, path, known, label, out):
     if res.returncode == 0:
         print(f"panic-never: the {label} links without a panic handler: no reachable panic")
         if known:
@@ -210,7 +215,7 @@ def panic_sites(bless, res, path, known, label):
     if "panic path survived" not in res.stderr:
         print(res.stderr)
         return 1
-    elf = os.path.join(REL, "fuzzy-firmware")
+    elf = os.path.join(out, "fuzzy-firmware")
     dis = subprocess.check_output([llvm_tool("llvm-objdump"), "-d", "-l", "--no-show-raw-insn", "-C", elf], text=True)
     call = re.compile(r"^\s*[0-9a-f]+:\s+bl?(?:\.w)?\s+0x[0-9a-f]+ <(core::panicking::[^>]*|core::result::unwrap_failed|core::option::expect_failed|core::slice::index::[^>]*fail[^>]*)>")
     sites = set()

@@ -12,7 +12,8 @@
 //! | interpolator tick | SysTick (core timer, exception) |
 //! | step timer (edges at exact times) | TIM2, 32-bit, 84 MHz, compare channel 1 interrupt (no pin) |
 //! | step / direction / enable, spindle enable and direction, coolant | GPIO outputs (steps and directions at high speed, the rest low) |
-//! | limit switches, e-stop | GPIO inputs with pull-up, read at each tick |
+//! | limit switches, e-stop, probe | GPIO inputs with pull-up, read at each tick |
+//! | (QEMU) the input word set by the tests | USART2 receive, polled at each tick |
 //! | spindle speed | TIM3 PWM (frequency `$33`) |
 //! | settings | one flash sector (the map's), erased and programmed 32 bits at a time |
 //! | watchdog | IWDG, about 250 ms (4 s while the settings sector is erased) |
@@ -242,7 +243,7 @@ pub fn init(_dp: pac::Peripherals) -> Board {
         output(*p, false);
         write_pin(*p, true);
     }
-    let inputs = MAP.limits.iter().flatten().chain([&MAP.estop]);
+    let inputs = MAP.limits.iter().flatten().chain([&MAP.estop, &MAP.probe]);
     for p in inputs.flatten() {
         input(*p);
     }
@@ -264,6 +265,8 @@ pub fn init(_dp: pac::Peripherals) -> Board {
 
     #[cfg(not(feature = "qemu"))]
     StepTimer::start();
+    #[cfg(feature = "qemu")]
+    test_inputs::init();
 
     Board {
         rx: UsartRx(()),
@@ -501,17 +504,53 @@ pub fn estop_changed() -> bool {
     pending
 }
 
-/// The limit switches and the e-stop.
+/// The input word of the QEMU image, which has no GPIO: the last byte a
+/// test wrote to USART2 (QEMU's second `-serial`), in the layout of
+/// [`Inputs::read`]. One status register read a tick, no interrupt; with
+/// no second serial nothing arrives and the word stays 0.
+#[cfg(feature = "qemu")]
+mod test_inputs {
+    use core::sync::atomic::{AtomicU8, Ordering};
+
+    use super::reg;
+
+    const USART2: u32 = 0x4000_4400;
+    static WORD: AtomicU8 = AtomicU8::new(0);
+
+    /// USART2 on, receiver on (QEMU drops what arrives otherwise).
+    pub fn init() {
+        reg::modify(reg::RCC + 0x40, |r| r | 1 << 17);
+        reg::write(USART2 + 0x0C, (1 << 13) | (1 << 2));
+    }
+
+    /// The word, after the last byte received.
+    pub fn read() -> u8 {
+        if reg::read(USART2) & 1 << 5 != 0 {
+            WORD.store(reg::read(USART2 + 0x04) as u8, Ordering::Relaxed);
+        }
+        WORD.load(Ordering::Relaxed)
+    }
+}
+
+/// The limit switches, the e-stop and the probe.
 pub struct Inputs(());
 
 impl Inputs {
     /// The input word (`controller::alarm` layout: bit 0 e-stop, then X
-    /// min, X max, … Z max), 1 where the pin is low (pulled to ground: a
-    /// closed normally-open switch), 0 where unwired.
+    /// min, X max, … Z max; bit 7 the probe, `controller::probe::PROBE`),
+    /// 1 where the pin is low (pulled to ground: a closed normally-open
+    /// switch), 0 where unwired.
     pub fn read(&mut self) -> u8 {
         let mut w = 0u8;
         if let Some(p) = MAP.estop {
             w |= !read_pin(p) as u8;
+        }
+        if let Some(p) = MAP.probe {
+            w |= (!read_pin(p) as u8) << 7;
+        }
+        #[cfg(feature = "qemu")]
+        {
+            w |= test_inputs::read();
         }
         for (a, ends) in MAP.limits.iter().enumerate() {
             for (e, p) in ends.iter().enumerate() {

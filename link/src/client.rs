@@ -144,6 +144,25 @@ impl Client {
         self.queue(|seq| HostMsg::Machine { seq, cmd })
     }
 
+    /// Queue a probing move to `target_mm` at `feed_mm_per_min` (I32F32
+    /// bits): it runs once the motion queued before it has ended
+    /// (`HostMsg::Probe`).
+    pub fn probe(
+        &mut self,
+        target_mm: [i64; 3],
+        feed_mm_per_min: i64,
+        toward: bool,
+        error_if_missed: bool,
+    ) -> u32 {
+        self.queue(|seq| HostMsg::Probe {
+            seq,
+            target_mm,
+            feed_mm_per_min,
+            toward,
+            error_if_missed,
+        })
+    }
+
     /// Whether runs of points whose coordinates lie on the wire's grid
     /// ([`crate::batch::to_grid`]) go out as `Points` batches (on by
     /// default; off, every point is a `Point` frame).
@@ -255,7 +274,8 @@ impl Client {
             | DeviceMsg::Planned { .. }
             | DeviceMsg::Applied { .. }
             | DeviceMsg::Homed { .. }
-            | DeviceMsg::Stored(_) => {}
+            | DeviceMsg::Stored(_)
+            | DeviceMsg::Probed { .. } => {}
         }
     }
 

@@ -231,6 +231,29 @@ pub enum HostMsg {
     },
     /// Ask for a [`DeviceMsg::Machine`] (answered at once).
     MachineQuery,
+    /// A probing move (G38.2-.5; queued, sequenced like a point): it ends
+    /// the open path, waits for the tool to be at rest, then moves straight
+    /// to `target_mm` at `feed_mm_per_min` and stops under control when the
+    /// probe input changes; [`DeviceMsg::Probed`] reports where it changed
+    /// (Grbl's `mc_probe_cycle`). The probe already in the state it watches
+    /// for at the start is [`AlarmCode::ProbeFailInitial`]; the move ended
+    /// without a change, with `error_if_missed`,
+    /// [`AlarmCode::ProbeFailContact`]. (Appended last: older messages keep
+    /// their encoding.)
+    Probe {
+        /// Sequence number.
+        seq: u32,
+        /// The end of the move, machine coordinates, mm, I32F32 bits.
+        target_mm: [I32F32Bits; 3],
+        /// Feed, mm/min, I32F32 bits (at least 1 mm/min).
+        feed_mm_per_min: I32F32Bits,
+        /// Stop on the input becoming active (G38.2, G38.3), else on it
+        /// becoming inactive (G38.4, G38.5).
+        toward: bool,
+        /// Reaching the target without a change is an alarm (G38.2,
+        /// G38.4).
+        error_if_missed: bool,
+    },
 }
 
 /// A machine command of the path stream ([`HostMsg::Machine`]).
@@ -338,6 +361,12 @@ pub enum AlarmCode {
         /// The program counter where the fault happened.
         pc: u32,
     },
+    /// Probing: the probe was already in the state the move watches for
+    /// when it was to start (Grbl's `ALARM:4`).
+    ProbeFailInitial,
+    /// Probing: the move reached its target without the probe changing,
+    /// G38.2/G38.4 (Grbl's `ALARM:5`).
+    ProbeFailContact,
 }
 
 /// What became of the stored settings (`DeviceMsg::Stored`).
@@ -374,7 +403,7 @@ pub struct MachineStatus {
     /// Axes homed since boot (bit 0 X, 1 Y, 2 Z).
     pub homed: u8,
     /// Inputs active (debounced): bit 0 e-stop, then X min, X max, Y min,
-    /// Y max, Z min, Z max.
+    /// Y max, Z min, Z max; bit 7 the probe.
     pub inputs: u8,
     /// Spindle direction, or off.
     pub spindle: SpindleDir,
@@ -675,6 +704,16 @@ pub enum DeviceMsg {
     },
     /// The settings store: read at start-up, or written.
     Stored(StoreResult),
+    /// A probing move ([`HostMsg::Probe`]) ended, the tool at rest.
+    Probed {
+        /// The probe command's sequence number.
+        seq: u32,
+        /// Where the probe input changed, machine coordinates, mm, I32F32
+        /// bits (where the tool stopped if it did not change).
+        pos_mm: [I32F32Bits; 3],
+        /// The input changed.
+        tripped: bool,
+    },
 }
 
 /// Why encoding or decoding failed.
@@ -963,6 +1002,13 @@ mod tests {
                 value: i64::MIN,
             },
             HostMsg::MachineQuery,
+            HostMsg::Probe {
+                seq: u32::MAX,
+                target_mm: [i64::MIN; 3],
+                feed_mm_per_min: i64::MIN,
+                toward: true,
+                error_if_missed: true,
+            },
         ] {
             roundtrip(m);
         }
@@ -1008,6 +1054,16 @@ mod tests {
                 pos_mm: [i64::MIN; 3],
             },
             DeviceMsg::Stored(StoreResult::Corrupt),
+            DeviceMsg::Probed {
+                seq: u32::MAX,
+                pos_mm: [i64::MIN; 3],
+                tripped: true,
+            },
+            DeviceMsg::Alarm {
+                code: AlarmCode::ProbeFailContact,
+                pos_mm: [i64::MIN; 3],
+                next_seq: u32::MAX,
+            },
             DeviceMsg::Planned {
                 tick: u32::MAX,
                 event: PlanEvent::Reset {

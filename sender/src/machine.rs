@@ -66,14 +66,24 @@ pub fn alarm_text(code: AlarmCode) -> String {
         AlarmCode::Fault { pc } => format!(
             "the firmware restarted after a hard fault at 0x{pc:08x} (a bug: please report it with this address and the firmware build)"
         ),
+        AlarmCode::ProbeFailInitial => {
+            "probe: already in the state the move watches for before it started (Grbl ALARM:4)"
+                .into()
+        }
+        AlarmCode::ProbeFailContact => {
+            "probe: no contact by the end of the move (Grbl ALARM:5)".into()
+        }
     }
 }
 
 /// Whether the position may be trusted after this alarm: an alarm stops
 /// without deceleration (steps may be lost), except link loss, which
-/// comes after a controlled stop.
+/// comes after a controlled stop, and the probe's, raised at rest.
 pub fn position_kept(code: AlarmCode) -> bool {
-    matches!(code, AlarmCode::LinkLoss)
+    matches!(
+        code,
+        AlarmCode::LinkLoss | AlarmCode::ProbeFailInitial | AlarmCode::ProbeFailContact
+    )
 }
 
 /// What to do about an alarm, for messages.

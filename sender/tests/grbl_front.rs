@@ -18,7 +18,15 @@ struct Rig {
 }
 
 fn rig(speed: f64) -> Rig {
-    let h = sim::start(speed).unwrap();
+    rig_with(speed, |_| {})
+}
+
+/// [`rig`] with `setup` run on the simulated controller first.
+fn rig_with(
+    speed: f64,
+    setup: impl FnOnce(&mut controller::sim::VirtualDevice) + Send + 'static,
+) -> Rig {
+    let h = sim::start_with(speed, setup).unwrap();
     let s = h.connect().unwrap();
     let mut session = Session::new(
         Box::new(s.try_clone().unwrap()),
@@ -337,4 +345,86 @@ fn real_time_bytes_written_as_utf8_characters_act() {
     let seen = r.statuses_until(Duration::from_secs(10), |s| s.starts_with("<Idle"));
     let end = mpos(seen.last().unwrap());
     assert!(end[0] < 10.0, "the jog was not cancelled: {seen:?}");
+}
+
+/// The `[PRB:x,y,z:n]` line in `out`: the position and the flag.
+fn prb(out: &str) -> ([f64; 3], u8) {
+    let s = out
+        .find("[PRB:")
+        .unwrap_or_else(|| panic!("no PRB in {out:?}"))
+        + 5;
+    let e = s + out[s..].find(']').unwrap();
+    let (xyz, n) = out[s..e].rsplit_once(':').unwrap();
+    let v: Vec<f64> = xyz.split(',').map(|c| c.parse().unwrap()).collect();
+    ([v[0], v[1], v[2]], n.parse().unwrap())
+}
+
+/// G38.2 against a plate at z = -3.25 (the simulated probe surface): the
+/// trip in `[PRB:…:1]` (machine coordinates) before the line's `ok`,
+/// within one step (0.01 mm); `G10 L20 P1 Z0` there and `G0 Z1` land
+/// 1 mm above the plate; `$#` keeps the result.
+#[test]
+fn g38_2_reports_the_trip_and_sets_a_work_zero_on_the_plate() {
+    let mut r = rig_with(10.0, |d| {
+        d.probe = Some(controller::sim::ProbeSurface::plane(-3.25))
+    });
+    r.until(Duration::from_secs(1), |o| o.contains("Grbl"));
+    r.send(b"G38.2 Z-10 F100\n");
+    let out = r.until(Duration::from_secs(30), |o| o.contains("ok"));
+    let (at, n) = prb(&out);
+    assert_eq!(n, 1, "{out}");
+    assert!(
+        out.find("[PRB:").unwrap() < out.find("ok").unwrap(),
+        "{out}"
+    );
+    assert!(
+        (at[2] + 3.25).abs() <= 0.01 + 1e-9 && at[0] == 0.0 && at[1] == 0.0,
+        "{out}"
+    );
+    assert!(!out.contains("ALARM"), "{out}");
+    r.send(b"G10 L20 P1 Z0\nG0 Z1\n");
+    r.until(Duration::from_secs(20), |o| count(o, "ok\r\n") == 2);
+    let s = r.idle(Duration::from_secs(20));
+    let z = mpos(&s)[2];
+    assert!((z - (at[2] + 1.0)).abs() < 1e-6, "{s}");
+    assert!((z + 2.25).abs() <= 0.01 + 1e-9, "1 mm above the plate: {s}");
+    r.send(b"$#\n");
+    let p = r.until(Duration::from_secs(2), |o| o.contains("ok"));
+    assert_eq!(prb(&p), (at, 1), "{p}");
+}
+
+/// A probe that never trips: G38.2 raises Grbl's `ALARM:5` (then
+/// `[PRB:…:0]` where it stopped, and the line's `ok`), G38.3 only reports
+/// `[PRB:…:0]`; one that starts tripped raises `ALARM:4`.
+#[test]
+fn g38_failures_raise_grbls_probe_alarms() {
+    let plane = |h: f64| {
+        move |d: &mut controller::sim::VirtualDevice| {
+            d.probe = Some(controller::sim::ProbeSurface::plane(h))
+        }
+    };
+    let mut r = rig_with(10.0, plane(-20.0));
+    r.until(Duration::from_secs(1), |o| o.contains("Grbl"));
+    r.send(b"G38.3 Z-1 F300\n");
+    let out = r.until(Duration::from_secs(30), |o| o.contains("ok"));
+    assert_eq!(prb(&out), ([0.0, 0.0, -1.0], 0), "{out}");
+    assert!(!out.contains("ALARM"), "{out}");
+    r.send(b"G38.2 Z-2 F300\n");
+    let out = r.until(Duration::from_secs(30), |o| o.contains("ok"));
+    assert!(out.contains("ALARM:5"), "{out}");
+    assert_eq!(prb(&out), ([0.0, 0.0, -2.0], 0), "{out}");
+    assert!(r.status().starts_with("<Alarm"));
+
+    let mut r = rig_with(10.0, plane(1.0));
+    r.until(Duration::from_secs(1), |o| o.contains("Grbl"));
+    for _ in 0..10 {
+        if r.status().contains("Pn:P") {
+            break;
+        }
+    }
+    assert!(r.status().contains("Pn:P"), "the probe shows as a pin");
+    r.send(b"G38.2 Z-2 F100\n");
+    let out = r.until(Duration::from_secs(30), |o| o.contains("ok"));
+    assert!(out.contains("ALARM:4"), "{out}");
+    assert!(!out.contains("[PRB:"), "{out}");
 }

@@ -184,6 +184,8 @@ pub struct Records {
     /// The other machine reports: settings, machine status, homing,
     /// store.
     pub machine: Vec<DeviceMsg>,
+    /// Probing moves that ended (`DeviceMsg::Probed`).
+    pub probed: Vec<DeviceMsg>,
 }
 
 impl Records {
@@ -211,6 +213,7 @@ impl Records {
             DeviceMsg::Aborted { .. } => self.aborted.push(*m),
             DeviceMsg::Alarm { .. } => self.alarms.push(*m),
             DeviceMsg::Applied { .. } => self.applied.push(*m),
+            DeviceMsg::Probed { .. } => self.probed.push(*m),
             DeviceMsg::Setting { .. }
             | DeviceMsg::Machine(_)
             | DeviceMsg::Homed { .. }
@@ -227,16 +230,28 @@ impl Records {
 pub struct Firmware {
     child: Option<Child>,
     conn: Connection,
+    /// QEMU's USART2 socket (the input word), once connected.
+    inputs: Option<std::os::unix::net::UnixStream>,
+    inputs_path: PathBuf,
     /// What the firmware reported.
     pub rec: Records,
     /// Where the firmware's defmt log goes.
     pub log: PathBuf,
 }
 
+/// Where QEMU listens for the input word the tests set (USART2, the QEMU
+/// image's stand-in for its GPIO inputs) next to the link's socket `sock`.
+pub fn inputs_socket(sock: &Path) -> PathBuf {
+    sock.with_extension("inputs")
+}
+
 /// QEMU's netduinoplus2 running `elf` with `-icount shift=0`, USART1 on the
 /// Unix socket `sock` (the guest starts when the first client connects),
-/// the semihosting (defmt) output to `log`.
+/// USART2, the input word ([`Firmware::set_inputs`]), on
+/// [`inputs_socket`], the semihosting (defmt) output to `log`.
 pub fn spawn_qemu(elf: &Path, sock: &Path, log: std::fs::File) -> Child {
+    let inputs = inputs_socket(sock);
+    let _ = std::fs::remove_file(&inputs);
     Command::new("qemu-system-arm")
         .args(["-cpu", "cortex-m4", "-machine", "netduinoplus2"])
         .args(["-display", "none", "-monitor", "none"])
@@ -244,6 +259,8 @@ pub fn spawn_qemu(elf: &Path, sock: &Path, log: std::fs::File) -> Child {
         .args(["-icount", "shift=0"])
         .arg("-serial")
         .arg(format!("unix:{},server=on,wait=on", sock.display()))
+        .arg("-serial")
+        .arg(format!("unix:{},server=on,wait=off", inputs.display()))
         .arg("-kernel")
         .arg(elf)
         .stdin(Stdio::null())
@@ -290,6 +307,8 @@ impl Firmware {
         let mut fw = Firmware {
             child: Some(child),
             conn: Connection::new(Box::new(stream), Box::new(reader)),
+            inputs: None,
+            inputs_path: inputs_socket(&sock),
             rec: Records::default(),
             log,
         };
@@ -400,6 +419,29 @@ impl Firmware {
     /// Queue the end of the path.
     pub fn end_path(&mut self) -> u32 {
         self.conn.client_mut().end_path()
+    }
+
+    /// Set the input word the firmware reads at each tick (its layout:
+    /// bit 0 e-stop, 1-6 the limit switches, 7 the probe; 1 active), as if
+    /// the pins changed: the byte goes to QEMU's USART2.
+    pub fn set_inputs(&mut self, word: u8) {
+        use std::io::Write;
+        if self.inputs.is_none() {
+            let s = std::os::unix::net::UnixStream::connect(&self.inputs_path)
+                .unwrap_or_else(|e| panic!("QEMU's input socket: {e}"));
+            self.inputs = Some(s);
+        }
+        let s = self.inputs.as_mut().expect("connected");
+        s.write_all(&[word]).expect("write the input word");
+    }
+
+    /// Queue a probing move to `to` (mm) at `feed` (mm/min); its sequence
+    /// number.
+    pub fn probe(&mut self, to: [f64; 3], feed: f64, toward: bool, error_if_missed: bool) -> u32 {
+        let bits = |v: f64| (v * 4294967296.0).round() as i64;
+        self.conn
+            .client_mut()
+            .probe(to.map(bits), bits(feed), toward, error_if_missed)
     }
 
     /// Queue a machine command (spindle, coolant); its sequence number.
@@ -536,5 +578,6 @@ impl Drop for Firmware {
             let _ = c.kill();
             let _ = c.wait();
         }
+        let _ = std::fs::remove_file(&self.inputs_path);
     }
 }

@@ -50,6 +50,29 @@ pub fn schedule(
     out
 }
 
+/// A probing move's point as the planner takes it (`HostMsg::Probe`: one
+/// straight move at its feed, not scheduled; `Planning::single_move`),
+/// for [`replay`]'s points under the probe's sequence number.
+pub fn probe_point(seq: u32, target_mm: [i64; 3], feed_bits: i64) -> ScheduledPoint {
+    let p = controller::probe::probe_from_link(seq, target_mm, feed_bits, true, true)
+        .expect("a probe the controller takes");
+    let (pos, feed) = (p.target, p.feed);
+    ScheduledPoint {
+        point: PathPoint {
+            pos,
+            feed_cap: Some(feed),
+            tag: seq,
+        },
+        index: 1,
+        curvature: fuzzy_core::units::CurvaturePerMm::ZERO,
+        variation: fuzzy_core::units::CurvaturePerMm::ZERO,
+        fraction: fuzzy_core::units::Fx::ZERO,
+        fuzzy_feed: feed,
+        feed,
+        fired: false,
+    }
+}
+
 /// The host's planner run over the firmware's inputs.
 pub struct Replayed {
     /// Every generated tick, from boot.

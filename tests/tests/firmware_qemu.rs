@@ -16,6 +16,9 @@
 //!   (checksum at every status, executed position), and checks them
 //!   against the per-axis speed and acceleration limits and the tangential
 //!   acceleration and jerk limits;
+//! - probing: the probe input tripped mid-move through QEMU's USART2 (the
+//!   image's stand-in for its pins), the trip reported where the steps
+//!   were, the tool stopped under control short of the target;
 //! - the cost benchmark (`firmware/src/bin/cost.rs`, 0.05 mm line, shapes,
 //!   with and without hold/override/starvation events) prints checksums
 //!   of its commanded positions, which the host recomputes with the same
@@ -1466,4 +1469,102 @@ fn path_control_in_the_stream_runs_bit_for_bit() {
     let (rep, _) = verify("path control", &mut fw, &[sent_a, sent_b], 0);
     assert_eq!(rep.ticks.last().unwrap().pos.to_bits(), goal);
     println!("path control: G64 P0.01 then G61 in the stream, bit for bit");
+}
+
+/// A probing move (G38.2) in QEMU, the probe input tripped mid-move by
+/// the test (`Firmware::set_inputs`, QEMU's USART2): `DeviceMsg::Probed`
+/// reports a trip between the last position reported before the input was
+/// set and the first one after (the steps run behind the setpoints a
+/// status reports, by 1.5 ticks and the tick it was read at), the tool
+/// comes to rest past it under control and short of the target, and the
+/// planner's setpoints stay the host's bit for bit. The input still active,
+/// the next probe toward it fails at once (`ALARM:4`).
+#[test]
+fn a_probe_tripped_mid_move_reports_where_the_steps_were() {
+    if !qemu_available() {
+        return;
+    }
+    let mut fw = Firmware::start("probe");
+    let feed_mm_min = 300.0;
+    let seq = fw.probe([0.0, 0.0, -5.0], feed_mm_min, true, true);
+    fw.transmit();
+    fw.poll_until(Duration::from_millis(5), Duration::from_secs(60), |s| {
+        pos(s)[2] < -1.0
+    });
+    let before = fw.status();
+    fw.set_inputs(controller::probe::PROBE);
+    let after = fw.status();
+    let deadline = std::time::Instant::now() + Duration::from_secs(30);
+    while fw.rec.probed.is_empty() {
+        assert!(
+            std::time::Instant::now() < deadline,
+            "no probe report; log: {}",
+            fw.log.display()
+        );
+        fw.pump(Duration::from_millis(20));
+    }
+    let link::DeviceMsg::Probed {
+        seq: s,
+        pos_mm,
+        tripped,
+    } = fw.rec.probed[0]
+    else {
+        unreachable!()
+    };
+    assert_eq!((s, tripped), (seq, true));
+    let z = pos_mm[2] as f64 / 4294967296.0;
+    let tick_mm = feed_mm_min / 60.0 / fw.hello().tick_hz as f64;
+    let (z0, z1) = (pos(&before)[2], pos(&after)[2]);
+    assert!(
+        z <= z0 + 3.0 * tick_mm && z >= z1 - 3.0 * tick_mm,
+        "tripped at {z}: statuses {z0} before, {z1} after"
+    );
+    assert_eq!((pos_mm[0], pos_mm[1]), (0, 0));
+    let rest = fw.poll_until(Duration::from_millis(10), Duration::from_secs(30), |s| {
+        s.motion == Motion::Idle
+    });
+    let rest = pos(rest.last().unwrap())[2];
+    assert!(rest < z && rest > -5.0, "at rest at {rest}, tripped at {z}");
+    assert!(last_alarm(&fw).is_none());
+    let config = replay_config(&mut fw);
+    let mut points = std::collections::HashMap::new();
+    let bits = |v: f64| (v * 4294967296.0).round() as i64;
+    points.insert(
+        seq,
+        planned::probe_point(seq, [0, 0, bits(-5.0)], bits(feed_mm_min)),
+    );
+    fw.status();
+    let upto = fw
+        .rec
+        .statuses
+        .iter()
+        .map(|s| s.generated_ticks)
+        .max()
+        .unwrap_or(0);
+    let rep = planned::replay(config, &points, &fw.rec.plan_log, upto);
+    // A status answered before the background's first pass has published
+    // nothing yet (no tick generated, no checksum).
+    let statuses: Vec<Status> = fw
+        .rec
+        .statuses
+        .iter()
+        .filter(|s| s.generated_ticks > 0)
+        .copied()
+        .collect();
+    rep.check_statuses("probe", &statuses);
+    // Still touching: the next probe toward it fails before moving.
+    fw.probe([0.0, 0.0, -5.0], feed_mm_min, true, true);
+    fw.transmit();
+    let deadline = std::time::Instant::now() + Duration::from_secs(30);
+    while last_alarm(&fw).is_none() {
+        assert!(std::time::Instant::now() < deadline, "no alarm");
+        fw.pump(Duration::from_millis(20));
+    }
+    let (code, at) = last_alarm(&fw).unwrap();
+    assert_eq!(code, link::AlarmCode::ProbeFailInitial);
+    // Where the steps are: the setpoint within a step (100 steps/mm).
+    assert!((at[2] as f64 / 4294967296.0 - rest).abs() <= 0.01);
+    println!(
+        "probe in QEMU: tripped at z = {z:.4} (statuses {z0:.4} / {z1:.4}), at rest at {rest:.4}"
+    );
 }

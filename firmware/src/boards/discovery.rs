@@ -14,7 +14,7 @@
 //! PB2 is BOOT1. So the link is USART1 remapped to PB6/PB7 (AF7; PB6 is the
 //! DAC's I2C clock, whose data line PB9 stays idle, so the DAC never sees
 //! an I2C start), the axes and the driver enable on port E from PE7, the
-//! switches and the machine outputs on port D and PA1, the spindle's PWM on
+//! switches and the machine outputs on port D, PA1 and PA2, the spindle's PWM on
 //! PB0 (TIM3 channel 3, AF2).
 //!
 //! | function | pin |
@@ -28,6 +28,7 @@
 //! | Y min / max limit | PD2 / PD3 |
 //! | Z min / max limit | PD6 / PD7 |
 //! | e-stop | PA1 |
+//! | probe | PA2 |
 //! | spindle enable / direction | PD8 / PD9 |
 //! | spindle PWM (TIM3 CH3, AF2) | PB0 |
 //! | coolant flood / mist | PD10 / PD11 |
@@ -50,6 +51,7 @@ pub const MAP: PinMap = PinMap {
         [Some(pd(6)), Some(pd(7))],
     ],
     estop: Some(pa(1)),
+    probe: Some(pa(2)),
     spindle_enable: Some(pd(8)),
     spindle_dir: Some(pd(9)),
     spindle_pwm: Some(PwmPin {

@@ -91,6 +91,8 @@ pub struct PinMap {
     pub limits: [[Option<PinId>; 2]; 3],
     /// The e-stop input.
     pub estop: Option<PinId>,
+    /// The probe input (G38.2-.5; `$6` its polarity).
+    pub probe: Option<PinId>,
     /// Spindle enable output.
     pub spindle_enable: Option<PinId>,
     /// Spindle direction output (high: counter-clockwise, M4).

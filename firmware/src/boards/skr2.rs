@@ -8,7 +8,8 @@
 //! which keeps the settings in sector 11, 0x080E_0000): motor sockets X, Y,
 //! Z; one limit connector per axis (grblHAL's "X-", "Y-", "Z-"; here the
 //! same pin serves both ends: which end is the homing end is `$23`, as in
-//! Grbl); the e-stop on EXP2-4 (grblHAL's reset/e-stop input); the spindle
+//! Grbl); the e-stop on EXP2-4 (grblHAL's reset/e-stop input); the probe on
+//! PE4 (grblHAL's `AUXINPUT1`, "Probe", the Z-probe connector); the spindle
 //! on EXP1-2 (PWM) and the FAN1/FAN2 MOSFETs (enable, direction), coolant
 //! on PB3/PB4; PC13 switches the drivers' power on ("safe power").
 //!
@@ -20,6 +21,7 @@
 //! | Z step / dir / enable | PA15 / PA8 / PD1 |
 //! | X / Y / Z limit | PC1 / PC3 / PC0 |
 //! | e-stop (EXP2-4) | PA4 |
+//! | probe | PE4 |
 //! | spindle enable (FAN1) / direction (FAN2) | PB6 / PB5 |
 //! | spindle PWM (EXP1-2, TIM3 CH3, AF2) | PB0 |
 //! | coolant flood / mist | PB3 / PB4 |
@@ -43,6 +45,7 @@ pub const MAP: PinMap = PinMap {
         [Some(pc(0)), Some(pc(0))],
     ],
     estop: Some(pa(4)),
+    probe: Some(pe(4)),
     spindle_enable: Some(pb(6)),
     spindle_dir: Some(pb(5)),
     spindle_pwm: Some(PwmPin {

@@ -408,11 +408,11 @@ fn axis_name(axis: u8) -> String {
 /// | `HomingAborted` | 6 | homing reset |
 /// | `HomingPullOff` | 8 | |
 /// | `HomingNoSwitch` | 9 | |
+/// | `ProbeFailInitial`, `ProbeFailContact` | 4, 5 | |
 /// | `Watchdog`, `StepLag`, `LinkLoss`, `Fault` | 3 | Grbl has none; 3 ("abort during cycle": position likely lost, re-home) says what the operator must do |
 ///
-/// Grbl's 4 and 5 (probe) and 7 (door during homing) have no alarm of
-/// ours: the probe cycle and the door are the front's, which raises them
-/// itself. A `match` without a wildcard: a new alarm of the controller
+/// Grbl's 7 (door during homing) has no alarm of ours: the door is the
+/// front's, which raises it itself. A `match` without a wildcard: a new alarm of the controller
 /// does not compile until it is mapped here.
 pub fn alarm_of(code: AlarmCode) -> GrblAlarm {
     let (alarm, message) = match code {
@@ -454,6 +454,8 @@ pub fn alarm_of(code: AlarmCode) -> GrblAlarm {
             )),
         ),
         AlarmCode::HomingAborted => (Alarm::HomingFailReset, None),
+        AlarmCode::ProbeFailInitial => (Alarm::ProbeFailInitial, None),
+        AlarmCode::ProbeFailContact => (Alarm::ProbeFailContact, None),
         AlarmCode::Fault { pc } => (
             Alarm::AbortCycle,
             Some(format!(

@@ -16,7 +16,7 @@
 //! | 2, 3 | step, direction invert masks | ours |
 //! | 4 | step enable invert | ours |
 //! | 5 | limit pins invert (0/1) | ours, a mask per switch (bit 0 X min … 5 Z max): 1 is written as 63 (all), 63 read as 1; 2-62 pass as masks |
-//! | 6 | probe pin invert | fixed 0 (no probe input on the controller) |
+//! | 6 | probe pin invert | ours |
 //! | 10 | status report mask | the front's |
 //! | 11 | junction deviation, mm | fixed 0.010 (Grbl's default; ours corners by `$203` chord tolerance and `$208` smoothing) |
 //! | 12 | arc tolerance, mm | the front's (the interpreter's chord tolerance) |
@@ -127,7 +127,7 @@ pub const GRBL_SETTINGS: [GrblSetting; 34] = {
         g(3, "direction port invert", "mask", Int, Same),
         g(4, "step enable invert", "bool", Int, Same),
         g(5, "limit pins invert", "bool", Int, LimitInvert),
-        g(6, "probe pin invert", "bool", Int, Fixed(0.0)),
+        g(6, "probe pin invert", "bool", Int, Same),
         g(
             10,
             "status report",

@@ -98,7 +98,7 @@ enum Pause {
 
 /// The interpreter's machine: the open path on the link.
 struct LinkMachine<'a> {
-    client: &'a mut Client,
+    session: &'a mut Session,
     path: &'a mut PathState,
     f_max_bits: i64,
     f_min_bits: i64,
@@ -106,6 +106,14 @@ struct LinkMachine<'a> {
     check: bool,
     /// The interpreter's warnings, for `[MSG:…]` lines.
     warnings: Vec<String>,
+    /// A probing move's outcome, for `[PRB:…]` and `$#`.
+    probed: Option<report::Probe>,
+    /// The alarm that ended a probing move.
+    probe_alarm: Option<AlarmCode>,
+    /// What the controller said while a probing move ran, for the front.
+    seen: Vec<DeviceMsg>,
+    /// The link failed while a probing move ran.
+    failure: Option<Failure>,
 }
 
 fn grid(p: [f64; 3]) -> Option<[i64; 3]> {
@@ -114,15 +122,102 @@ fn grid(p: [f64; 3]) -> Option<[i64; 3]> {
 }
 
 impl LinkMachine<'_> {
+    fn client(&mut self) -> &mut Client {
+        self.session.conn.client_mut()
+    }
+
     fn open_path(&mut self) {
         if !self.path.open {
-            self.client.start_path(self.f_max_bits, self.f_min_bits);
-            self.client.point(self.path.here, None);
+            let (f_max, f_min, here) = (self.f_max_bits, self.f_min_bits, self.path.here);
+            self.client().start_path(f_max, f_min);
+            self.client().point(here, None);
             self.path.open = true;
             self.path.restart = false;
         } else if self.path.restart {
-            self.client.point(self.path.here, None);
+            let here = self.path.here;
+            self.client().point(here, None);
             self.path.restart = false;
+        }
+    }
+
+    /// Run the probing move queued as `seq` (`HostMsg::Probe`) to its
+    /// end, polling the link (statuses asked for as [`Front::poll`]
+    /// does, so that the controller's link-silence hold, `$209`, does not
+    /// take it for a host gone): where it tripped, or `None`. Everything
+    /// else received is kept for the front ([`Self::seen`]). Bounded by
+    /// the move's time at its feed, with a margin.
+    fn await_probe(&mut self, seq: u32, p: &ProbeMove) -> anyhow::Result<Option<[f64; 3]>> {
+        let here = self.path.here.map(crate::view::bits_f64);
+        let dist = (0..3)
+            .map(|i| (p.target_mm[i] - here[i]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        let secs = dist / p.feed_mm_per_min.max(1.0) * 60.0;
+        let deadline = Instant::now() + Duration::from_secs_f64(2.0 * secs + 10.0);
+        let mut next_status = Instant::now();
+        let fail = |f: Failure| anyhow!("G38: {}", f.message);
+        loop {
+            let now = Instant::now();
+            if now > deadline {
+                bail!("line {}: G38: no probe report from the controller", p.line);
+            }
+            if now >= next_status {
+                let r = self.session.send(&HostMsg::StatusQuery);
+                if let Err(f) = r {
+                    let e = fail(f.clone());
+                    self.failure = Some(f);
+                    return Err(e);
+                }
+                next_status = now + STATUS_PERIOD;
+            }
+            let r = self
+                .session
+                .conn
+                .transmit()
+                .map_err(Failure::from)
+                .and_then(|_| self.session.recv(Duration::from_millis(5)));
+            let m = match r {
+                Ok(Some(m)) => m,
+                Ok(None) => continue,
+                Err(f) => {
+                    let e = fail(f.clone());
+                    self.failure = Some(f);
+                    return Err(e);
+                }
+            };
+            match m {
+                DeviceMsg::Probed {
+                    seq: s,
+                    pos_mm,
+                    tripped,
+                } if s == seq => {
+                    let at = pos_mm.map(crate::view::bits_f64);
+                    self.probed = Some(report::Probe {
+                        position_mm: at,
+                        succeeded: tripped,
+                    });
+                    return Ok(tripped.then_some(at));
+                }
+                DeviceMsg::Alarm { code, pos_mm, .. } => {
+                    self.seen.push(m);
+                    self.probe_alarm = Some(code);
+                    if code == AlarmCode::ProbeFailContact {
+                        // Grbl reports where the cycle ended (`mc_probe_cycle`
+                        // then `report_probe_parameters`).
+                        self.probed = Some(report::Probe {
+                            position_mm: pos_mm.map(crate::view::bits_f64),
+                            succeeded: false,
+                        });
+                    }
+                    bail!(
+                        "line {}: G38.{}: {}",
+                        p.line,
+                        p.kind.minor(),
+                        crate::machine::alarm_text(code)
+                    );
+                }
+                _ => self.seen.push(m),
+            }
         }
     }
 }
@@ -148,7 +243,7 @@ impl Machine for LinkMachine<'_> {
                     bail!("line {line}: a feed or coordinate the controller refuses");
                 }
                 self.open_path();
-                self.path.last_seq = Some(self.client.point(bits, Some(cap_bits)));
+                self.path.last_seq = Some(self.client().point(bits, Some(cap_bits)));
                 self.path.here = bits;
             }
             Item::Event { line, event } => {
@@ -159,7 +254,7 @@ impl Machine for LinkMachine<'_> {
                     return Ok(());
                 }
                 self.open_path();
-                self.path.last_seq = Some(self.client.machine(cmd));
+                self.path.last_seq = Some(self.client().machine(cmd));
                 self.path.restart = true;
             }
             Item::Warning { text, .. } => self.warnings.push(text),
@@ -167,12 +262,39 @@ impl Machine for LinkMachine<'_> {
         Ok(())
     }
 
+    /// A probing move (Grbl's `mc_probe_cycle`): the open path ends, the
+    /// controller runs the move from rest (`HostMsg::Probe`) and reports
+    /// where the probe tripped; this waits for it, polling the link. The
+    /// sender's bytes wait meanwhile (Grbl answers status reports and
+    /// real-time commands during a probe; here they are answered when it
+    /// ends: the safety inputs act on the controller regardless). Grbl
+    /// then syncs its parser to where the tool stopped, past the trip by
+    /// the deceleration; here the interpreter takes the trip position, and
+    /// the next path starts there (the controller moves the tool back by
+    /// the overtravel first), so that `G10 L20 Z0` after a probe sets the
+    /// zero where the probe touched. In check mode (`$C`) nothing moves and
+    /// the target is taken, as Grbl's `GC_PROBE_CHECK_MODE`.
     fn probe(&mut self, p: &ProbeMove) -> anyhow::Result<Option<[f64; 3]>> {
-        bail!(
-            "line {}: G38.{}: this controller has no probe input yet",
-            p.line,
-            p.kind.minor()
-        )
+        let line = p.line;
+        let minor = p.kind.minor();
+        if self.check {
+            return Ok(Some(p.target_mm));
+        }
+        let target = grid(p.target_mm)
+            .ok_or_else(|| anyhow!("line {line}: G38.{minor}: a coordinate beyond ±100 m"))?;
+        let feed = FeedMmPerMin::from_f64(p.feed_mm_per_min).0.to_bits();
+        if controller::probe::probe_from_link(0, target, feed, true, true).is_none() {
+            bail!("line {line}: G38.{minor}: a feed or coordinate the controller refuses");
+        }
+        if self.path.open {
+            self.client().end_path();
+            self.path.open = false;
+            self.path.restart = false;
+        }
+        let (toward, error) = (p.kind.toward(), p.kind.error_if_not_tripped());
+        let seq = self.client().probe(target, feed, toward, error);
+        self.path.last_seq = Some(seq);
+        self.await_probe(seq, p)
     }
 }
 
@@ -592,6 +714,7 @@ impl Front {
                     self.machine.inputs & 0b0110_0000 != 0,
                 ],
                 reset: self.machine.inputs & 1 != 0,
+                probe: self.machine.inputs & controller::probe::PROBE != 0,
                 ..report::Pins::default()
             },
             overrides: self.overrides,
@@ -799,22 +922,47 @@ impl Front {
             return Ok(());
         }
         let mut m = LinkMachine {
-            client: self.session.conn.client_mut(),
+            session: &mut self.session,
             path: &mut self.path,
             f_max_bits: self.f_max_bits,
             f_min_bits: self.f_min_bits,
             check: self.check,
             warnings: Vec::new(),
+            probed: None,
+            probe_alarm: None,
+            seen: Vec::new(),
+            failure: None,
         };
         let before = m.path.last_seq;
         let r = self.interp.run_with(&mut m);
         let warnings = std::mem::take(&mut m.warnings);
+        let (probed, probe_alarm) = (m.probed, m.probe_alarm);
+        let (seen, failure) = (std::mem::take(&mut m.seen), m.failure.take());
         let after = self.path.last_seq;
+        if let Some(f) = failure {
+            return Err(f);
+        }
+        for msg in &seen {
+            self.on_message(msg);
+        }
         for w in warnings {
             self.answer(report::message(&w), Release::Now);
         }
+        if let Some(p) = probed {
+            // Before the line's `ok`, kept for `$#` (Grbl's
+            // `report_probe_parameters`).
+            self.probe = p;
+            let text = report::probe(&p, self.front.report_inches);
+            self.answer(text, Release::Now);
+        }
         if let Err(e) = r {
-            self.refuse_gcode(&e);
+            if probe_alarm.is_some() {
+                // Grbl: the alarm, then the line's `ok`; the lines after
+                // it are refused until `$X`.
+                self.answer(report::ok(), Release::Now);
+            } else {
+                self.refuse_gcode(&e);
+            }
             return Ok(());
         }
         let words = words_of(text);
