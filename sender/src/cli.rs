@@ -68,6 +68,10 @@ pub struct LinkArgs {
     /// board), at this many times real time (`--sim` or `--sim=SPEED`).
     #[arg(long, global = true, num_args = 0..=1, require_equals = true, default_missing_value = "1", value_name = "SPEED")]
     pub sim: Option<f64>,
+    /// With `--sim`: the simulated probe touches the plane z = MM (machine
+    /// coordinates), so that G38.2-.5 have something to find.
+    #[arg(long, global = true, value_name = "MM", allow_negative_numbers = true)]
+    pub sim_probe_z: Option<f64>,
     /// Baud rate of the serial port.
     #[arg(long, global = true, default_value_t = DEFAULT_BAUD)]
     pub baud: u32,
@@ -89,6 +93,9 @@ impl LinkArgs {
                 "give one link: --port, --tcp, --unix or --sim",
             ));
         }
+        if self.sim_probe_z.is_some() && self.sim.is_none() {
+            return Err(Failure::new(Exit::Usage, "--sim-probe-z needs --sim"));
+        }
         if let Some(p) = &self.port {
             return Ok(Target::Serial {
                 port: p.clone(),
@@ -102,8 +109,20 @@ impl LinkArgs {
             return Ok(Target::Unix(u.clone()));
         }
         if let Some(s) = self.sim {
-            return Ok(Target::Sim { speed: s });
+            if let Some(z) = self.sim_probe_z {
+                if !z.is_finite() {
+                    return Err(Failure::new(
+                        Exit::Usage,
+                        "--sim-probe-z must be a number of mm",
+                    ));
+                }
+            }
+            return Ok(Target::Sim {
+                speed: s,
+                probe_z_mm: self.sim_probe_z,
+            });
         }
+
         Err(Failure::new(
             Exit::Usage,
             "no link: give --port, --tcp, --unix or --sim",
@@ -875,7 +894,7 @@ fn run_program(
     opts.reports = a.verify;
     // The simulated controller's time runs `speed` times the host's: the
     // motion ahead must last as long in the host's time.
-    if let Target::Sim { speed } = target {
+    if let Target::Sim { speed, .. } = target {
         opts.ahead = Some(stream::AHEAD.mul_f64(speed.max(1.0)));
     }
     let hs = session.handshake(&opts)?;
@@ -1030,7 +1049,13 @@ mod tests {
         .unwrap();
         assert_eq!(c.link.target().unwrap_err().exit, Exit::Usage);
         let c = Cli::try_parse_from(["fuzzy-send", "--sim=3", "send", "x.nc"]).unwrap();
-        assert_eq!(c.link.target().unwrap(), Target::Sim { speed: 3.0 });
+        assert_eq!(
+            c.link.target().unwrap(),
+            Target::Sim {
+                speed: 3.0,
+                probe_z_mm: None
+            }
+        );
         let c = Cli::try_parse_from(["fuzzy-send", "status", "--port", "/dev/x"]).unwrap();
         assert_eq!(
             c.link.target().unwrap(),
@@ -1079,7 +1104,13 @@ mod tests {
         ])
         .unwrap();
         assert_eq!(jog_words(&c), ["G90", "z-1", "F300"]);
-        assert_eq!(c.link.target().unwrap(), Target::Sim { speed: 5.0 });
+        assert_eq!(
+            c.link.target().unwrap(),
+            Target::Sim {
+                speed: 5.0,
+                probe_z_mm: None
+            }
+        );
         assert_eq!(c.link.link_timeout, 2.0);
         assert!(matches!(c.command, Command::Jog(JogArgs { log: true, .. })));
         // After `--`, words are words.

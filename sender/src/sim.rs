@@ -104,7 +104,16 @@ impl Drop for SimHandle {
 /// Start a simulated controller at `speed` × real time and connect to it:
 /// the host's end of its stream.
 pub fn spawn(speed: f64) -> io::Result<(UnixStream, SimHandle)> {
-    let h = start(speed)?;
+    spawn_with(speed, |_| {})
+}
+
+/// [`spawn`], with `setup` run on the fresh device first (as in
+/// [`start_with`]).
+pub fn spawn_with(
+    speed: f64,
+    setup: impl FnOnce(&mut VirtualDevice) + Send + 'static,
+) -> io::Result<(UnixStream, SimHandle)> {
+    let h = start_with(speed, setup)?;
     let s = h.connect()?;
     Ok((s, h))
 }

@@ -37,6 +37,9 @@ pub enum Target {
     Sim {
         /// Speed-up over real time.
         speed: f64,
+        /// The plane the simulated probe touches, machine z in mm (none:
+        /// the probe input never trips).
+        probe_z_mm: Option<f64>,
     },
 }
 
@@ -46,7 +49,7 @@ impl std::fmt::Display for Target {
             Target::Serial { port, baud } => write!(f, "{port} at {baud} baud"),
             Target::Tcp(a) => write!(f, "tcp {a}"),
             Target::Unix(p) => write!(f, "unix socket {}", p.display()),
-            Target::Sim { speed } => write!(f, "the simulated controller (×{speed})"),
+            Target::Sim { speed, .. } => write!(f, "the simulated controller (×{speed})"),
         }
     }
 }
@@ -156,8 +159,10 @@ pub fn open(target: &Target) -> Result<Opened, Failure> {
                 sim: None,
             })
         }
-        Target::Sim { speed } => {
-            let (s, h) = sim::spawn(*speed).map_err(|e| link_lost(target, e))?;
+        Target::Sim { speed, probe_z_mm } => {
+            let probe = probe_z_mm.map(controller::sim::ProbeSurface::plane);
+            let (s, h) = sim::spawn_with(*speed, move |d| d.probe = probe)
+                .map_err(|e| link_lost(target, e))?;
             let r = s.try_clone().map_err(|e| link_lost(target, e))?;
             Ok(Opened {
                 writer: Box::new(s),

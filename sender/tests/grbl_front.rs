@@ -393,6 +393,83 @@ fn g38_2_reports_the_trip_and_sets_a_work_zero_on_the_plate() {
     assert_eq!(prb(&p), (at, 1), "{p}");
 }
 
+/// A sender's side scripted in time: bytes handed over once due, what
+/// the front writes kept.
+struct Script {
+    t0: Instant,
+    inputs: std::collections::VecDeque<(Duration, Vec<u8>)>,
+    out: String,
+}
+
+impl sender::serve::front::SenderIo for Script {
+    fn read_now(&mut self, buf: &mut [u8]) -> Result<Option<usize>, sender::exit::Failure> {
+        match self.inputs.front() {
+            Some((at, _)) if self.t0.elapsed() >= *at => {
+                let (_, b) = self.inputs.pop_front().unwrap();
+                buf[..b.len()].copy_from_slice(&b);
+                Ok(Some(b.len()))
+            }
+            _ => Ok(Some(0)),
+        }
+    }
+
+    fn write(&mut self, text: &str) -> Result<(), sender::exit::Failure> {
+        self.out.push_str(text);
+        Ok(())
+    }
+}
+
+/// While a probing move runs (the front blocked on its line), the
+/// sender's real-time bytes still act, as Grbl's serial interrupt takes
+/// them during `mc_probe_cycle`: `?` is answered with `Run` and the tool
+/// moving, `!` holds it, `~` resumes, and a soft reset (0x18) stops it
+/// under control: no `ok` and no alarm for the line, the welcome again, the
+/// tool at rest between its start and the target.
+#[test]
+fn real_time_bytes_act_while_a_probe_moves() {
+    let mut r = rig_with(10.0, |d| {
+        d.probe = Some(controller::sim::ProbeSurface::plane(-50.0))
+    });
+    r.until(Duration::from_secs(1), |o| o.contains("Grbl"));
+    let ms = Duration::from_millis;
+    let mut io = Script {
+        t0: Instant::now(),
+        inputs: [
+            (ms(150), b"?".to_vec()),
+            (ms(250), b"!".to_vec()),
+            (ms(600), b"?".to_vec()),
+            (ms(700), b"~".to_vec()),
+            (ms(850), b"?".to_vec()),
+            (ms(900), vec![0x18]),
+        ]
+        .into(),
+        out: String::new(),
+    };
+    r.send(b"G38.2 Z-10 F60\n");
+    let t0 = Instant::now();
+    while !io.out.contains("Grbl") {
+        r.front.poll_with(&mut io).unwrap();
+        io.out.push_str(&r.front.take_output());
+        assert!(t0.elapsed() < Duration::from_secs(10), "{:?}", io.out);
+    }
+    let out = std::mem::take(&mut io.out);
+    let reports: Vec<&str> = out.split("\r\n").filter(|l| l.starts_with('<')).collect();
+    assert_eq!(reports.len(), 3, "{out}");
+    assert!(reports[0].starts_with("<Run"), "{out}");
+    assert!(mpos(reports[0])[2] < 0.0, "moving: {out}");
+    assert!(reports[1].starts_with("<Hold"), "{out}");
+    assert!(reports[2].starts_with("<Run"), "{out}");
+    assert!(!out.contains("ok") && !out.contains("ALARM"), "{out}");
+    let s = r.idle(Duration::from_secs(10));
+    let z = mpos(&s)[2];
+    assert!(z < 0.0 && z > -10.0, "{s}");
+    // The front takes lines again, from where the tool stopped.
+    r.send(b"G91 G0 Z1\n");
+    r.until(Duration::from_secs(5), |o| o.contains("ok"));
+    let s = r.idle(Duration::from_secs(10));
+    assert!((mpos(&s)[2] - (z + 1.0)).abs() < 1e-9, "{s}");
+}
+
 /// A probe that never trips: G38.2 raises Grbl's `ALARM:5` (then
 /// `[PRB:…:0]` where it stopped, and the line's `ok`), G38.3 only reports
 /// `[PRB:…:0]`; one that starts tripped raises `ALARM:4`.

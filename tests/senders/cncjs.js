@@ -17,6 +17,11 @@ for (let i = 2; i + 1 < process.argv.length; i += 2) {
 }
 const URL_ = args.cncjs;
 const PORT = args.port;
+// The simulated probe plate's machine z (--plate), the axis step (--step),
+// or QEMU's input socket to trip the probe by hand (--trip).
+const PLATE = args.plate !== undefined ? Number(args.plate) : null;
+const STEP = Number(args.step || 0.01);
+const TRIP = args.trip || null;
 if (!URL_ || !PORT) {
   console.error('usage: node cncjs.js --cncjs http://127.0.0.1:PORT --port /path/to/pty');
   process.exit(2);
@@ -56,6 +61,18 @@ const seen = {
   errors: [], // error: and ALARM: lines
   spindleMax: 0, // the highest spindle speed a status report showed
 };
+
+// QEMU's input word (bit 0 e-stop, 1-6 limits, 7 probe; 1 active), one
+// byte to its USART2 socket.
+let inputs = null;
+function setInputs(word) {
+  return new Promise((resolve, reject) => {
+    const write = () => inputs.write(Buffer.from([word]), (e) => (e ? reject(e) : resolve()));
+    if (inputs) return write();
+    inputs = require('net').connect(TRIP, write);
+    inputs.on('error', reject);
+  });
+}
 
 function sleep(ms) {
   return new Promise((r) => setTimeout(r, ms));
@@ -273,8 +290,48 @@ async function main() {
       log(`G54 ${g54.x},${g54.y},${g54.z}; WPos ${pos(s.wpos)}, MPos ${pos(s.mpos)}`);
       expectPos('work zero', s.mpos, '9.000,6.000,2.000');
     }],
-    // A probe step (G38.2 via cncjs's probe commands, [PRB:] read back)
-    // goes here once the controller has a probe input: it refuses G38.x.
+    ['a Z probe as the Probe widget of cncjs sends it, then a work zero on the plate', async () => {
+      const before = seen.state.mpos;
+      const fromZ = Number(before.z);
+      let tripped = null;
+      if (TRIP) {
+        // QEMU: the probe input (bit 7 of the input word on USART2) set
+        // once the tool has gone 1 mm down.
+        tripped = until('the probe move', 30000, () => seen.state.activeState === 'Run'
+          && Number(seen.state.mpos.z) < fromZ - 1).then(() => setInputs(0x80));
+      }
+      // The widget's commands for a Z probe: relative, G38.2 at the probe
+      // feed, absolute, the plate's thickness as the work zero, retract.
+      command('gcode', ['G91', 'G38.2 Z-10 F100', 'G90', 'G10 L20 P1 Z0.5', 'G91', 'G0 Z2', 'G90'].join('\n'));
+      const prb = await until('[PRB:] relayed by cncjs', 60000, () => {
+        // ($# earlier reported the last probe, none yet: result 0.)
+        const p = seen.settings && seen.settings.parameters && seen.settings.parameters.PRB;
+        return p && Number(p.result) === 1 ? p : null;
+      });
+      if (tripped) {
+        await tripped;
+        await setInputs(0x00);
+      }
+      const z = Number(prb.z);
+      if (prb.x !== before.x || prb.y !== before.y) {
+        throw new Error(`PRB ${JSON.stringify(prb)} from ${pos(before)}`);
+      }
+      if (PLATE !== null && Math.abs(z - PLATE) > STEP + 1e-9) {
+        throw new Error(`PRB z ${z}, the plate is at ${PLATE} (one step ${STEP})`);
+      }
+      if (!(z < fromZ - 1 && z > fromZ - 10)) throw new Error(`PRB z ${z} from ${fromZ}`);
+      const s = await settled('the retract at rest');
+      // G10 L20 took the position the probe move stopped at (the trip, or
+      // past it by its deceleration), 2 mm below the retract's end.
+      const stop = Number(s.mpos.z) - 2;
+      if (!(stop <= z + 1e-9 && stop > z - 0.1)) throw new Error(`stopped at ${stop}, PRB z ${z}`);
+      command('gcode', '$#');
+      const g54 = await until(`[G54:] from $# with z ${stop - 0.5}`, 30000, () => {
+        const p = seen.settings && seen.settings.parameters && seen.settings.parameters.G54;
+        return p && Math.abs(Number(p.z) - (stop - 0.5)) < 1e-6 ? p : null;
+      });
+      log(`probed at ${prb.x},${prb.y},${prb.z}; G54 ${g54.x},${g54.y},${g54.z}; MPos ${pos(s.mpos)}`);
+    }],
   ];
 
   for (const [name, run] of steps) {
@@ -287,6 +344,7 @@ async function main() {
 
   await new Promise((resolve) => emit('close', PORT, resolve));
   socket.close();
+  if (inputs) inputs.end();
 }
 
 const deadline = setTimeout(() => {

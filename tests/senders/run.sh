@@ -4,7 +4,13 @@
 # through the pty), bCNC's Sender and GRBL1 classes without their window
 # (bcnc.py, over TCP). Each sender gets a fresh `serve --sim`.
 #
-#   tests/senders/run.sh [cncjs] [bcnc]   # default: both, one after the other
+#   tests/senders/run.sh [cncjs] [bcnc] [cncjs-qemu]   # default: cncjs and bcnc
+#
+# cncjs-qemu: the same cncjs steps through `fuzzy-send --unix SOCK serve`
+# against the firmware in QEMU (real time, no -icount), its probe input
+# tripped through QEMU's USART2 socket ($FUZZY_FIRMWARE: the ELF, default
+# firmware/target/thumbv7em-none-eabihf/release/fuzzy-firmware, built
+# when missing).
 #   tests/senders/run.sh --install        # only install them
 #
 # Installed into $FUZZY_SENDERS_CACHE (default target/senders/): cncjs by
@@ -17,6 +23,8 @@ here=$(cd "$(dirname "$0")" && pwd)
 root=$(cd "$here/../.." && pwd)
 cache=${FUZZY_SENDERS_CACHE:-$root/target/senders}
 sim_speed=5
+# The simulated probe plate (machine z, mm) and the simulated axes' step.
+plate_z=-3.25
 
 log() { printf '[senders] %s\n' "$*" >&2; }
 
@@ -79,7 +87,7 @@ serve() {
     local name=$1
     shift
     local out=$work/serve-$name.log
-    "$FUZZY_SEND" --sim="$sim_speed" serve "$@" >"$out" 2>&1 &
+    "$FUZZY_SEND" "${link[@]}" serve "$@" >"$out" 2>&1 &
     pids+=($!)
     for _ in $(seq 300); do
         if grep -q "connect a sender" "$out"; then return; fi
@@ -90,6 +98,8 @@ serve() {
     cat "$out" >&2
     return 1
 }
+
+link=(--sim="$sim_speed")
 
 free_port() {
     python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])'
@@ -107,7 +117,14 @@ show_logs() {
 run_cncjs() {
     install_cncjs || return 1
     local pty=$work/ttyFUZZY
-    serve cncjs --pty-link "$pty" || return 1
+    serve cncjs --pty-link "$pty" --sim-probe-z "$plate_z" || return 1
+    cncjs_steps "$pty" --plate "$plate_z" --step 0.01
+}
+
+# cncjs's server, headless, on a free port; then cncjs.js with ARGS.
+cncjs_steps() {
+    local pty=$1
+    shift
     local http
     http=$(free_port)
     [ -n "$http" ] || return 1
@@ -117,7 +134,30 @@ run_cncjs() {
         -c "$work/cncrc" >"$work/cncjs-server.log" 2>&1 &
     pids+=($!)
     NODE_PATH=$cache/node/node_modules timeout 420 node "$here/cncjs.js" \
-        --cncjs "http://127.0.0.1:$http" --port "$pty"
+        --cncjs "http://127.0.0.1:$http" --port "$pty" "$@"
+}
+
+run_cncjs_qemu() {
+    install_cncjs || return 1
+    local elf=${FUZZY_FIRMWARE:-$root/firmware/target/thumbv7em-none-eabihf/release/fuzzy-firmware}
+    if [ ! -f "$elf" ]; then
+        log "cargo build --release (firmware)"
+        (cd "$root/firmware" && cargo build -q --release) || return 1
+    fi
+    local sock=$work/usart1.sock inputs=$work/inputs.sock
+    qemu-system-arm -cpu cortex-m4 -machine netduinoplus2 -display none -monitor none \
+        -semihosting-config enable=on,target=native \
+        -serial "unix:$sock,server=on,wait=off" -serial "unix:$inputs,server=on,wait=off" \
+        -kernel "$elf" >"$work/qemu.log" 2>&1 &
+    pids+=($!)
+    for _ in $(seq 100); do
+        if [ -S "$sock" ] && [ -S "$inputs" ]; then break; fi
+        sleep 0.1
+    done
+    link=(--unix "$sock")
+    local pty=$work/ttyFUZZY
+    serve cncjs-qemu --pty-link "$pty" || return 1
+    cncjs_steps "$pty" --trip "$inputs" --deadline 300
 }
 
 run_bcnc() {
@@ -136,7 +176,8 @@ for w in "${which[@]}"; do
     case $w in
         cncjs) run_cncjs || failed=1 ;;
         bcnc) run_bcnc || failed=1 ;;
-        *) log "unknown sender $w (cncjs, bcnc)"; exit 2 ;;
+        cncjs-qemu) run_cncjs_qemu || failed=1 ;;
+        *) log "unknown sender $w (cncjs, bcnc, cncjs-qemu)"; exit 2 ;;
     esac
     log "$w took $(python3 -c "import time; print(f'{time.time() - $t0:.1f}')") s"
     if [ "$failed" = 1 ]; then

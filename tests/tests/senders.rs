@@ -1,6 +1,7 @@
 //! Real Grbl senders against `fuzzy-send serve --sim`: cncjs (its server
-//! headless, through the pty) and bCNC (its sender classes, over TCP), run
-//! by `tests/senders/run.sh`; what each checks is listed in
+//! headless, through the pty) and bCNC (its sender classes, over TCP); and
+//! cncjs again through `fuzzy-send serve` against the firmware in QEMU.
+//! Run by `tests/senders/run.sh`; what each checks is listed in
 //! `sender/README.md`.
 //!
 //! They are installed from npm and PyPI into `target/senders/`, so these
@@ -11,7 +12,7 @@ use std::path::PathBuf;
 use std::process::{Command, Output};
 use std::sync::OnceLock;
 
-use system_tests::firmware::repo_root;
+use system_tests::firmware::{firmware_elf, qemu_available, repo_root};
 
 fn enabled() -> bool {
     let on = std::env::var("FUZZY_REQUIRE_SENDERS").as_deref() == Ok("1");
@@ -30,6 +31,9 @@ fn run_sh(args: &[&str], bin: Option<&PathBuf>) -> Output {
     if let Some(b) = bin {
         c.env("FUZZY_SEND", b);
     }
+    if args.contains(&"cncjs-qemu") {
+        c.env("FUZZY_FIRMWARE", firmware_elf());
+    }
     c.output().expect("run tests/senders/run.sh")
 }
 
@@ -47,11 +51,12 @@ fn ready() -> &'static PathBuf {
     })
 }
 
-fn check(sender: &str) {
+/// `run.sh WHICH`, whose script ends with `[sender] PASS`.
+fn check(which: &str, sender: &str) {
     if !enabled() {
         return;
     }
-    let out = run_sh(&[sender], Some(ready()));
+    let out = run_sh(&[which], Some(ready()));
     let text = format!(
         "{}{}",
         String::from_utf8_lossy(&out.stdout),
@@ -60,17 +65,25 @@ fn check(sender: &str) {
     println!("{text}");
     assert!(
         out.status.success(),
-        "{sender} against fuzzy-send serve:\n{text}"
+        "{which} against fuzzy-send serve:\n{text}"
     );
     assert!(text.contains(&format!("[{sender}] PASS")), "{text}");
 }
 
 #[test]
 fn cncjs_drives_the_grbl_front_through_the_pty() {
-    check("cncjs");
+    check("cncjs", "cncjs");
 }
 
 #[test]
 fn bcnc_drives_the_grbl_front_over_tcp() {
-    check("bcnc");
+    check("bcnc", "bcnc");
+}
+
+#[test]
+fn cncjs_drives_the_qemu_firmware_through_the_front() {
+    if !qemu_available() {
+        return;
+    }
+    check("cncjs-qemu", "cncjs");
 }

@@ -96,14 +96,46 @@ enum Pause {
     Program(String),
 }
 
+/// The sender's side of the front while a line blocks it (a probing
+/// move): its bytes are read meanwhile and its real-time commands act, as
+/// Grbl's serial interrupt reads them during `mc_probe_cycle`; lines wait
+/// in the receive buffer.
+pub trait SenderIo {
+    /// What the sender has sent, without waiting: `Some(0)` for nothing
+    /// now, `None` once it has gone.
+    fn read_now(&mut self, buf: &mut [u8]) -> Result<Option<usize>, Failure>;
+    /// Text to the sender.
+    fn write(&mut self, text: &str) -> Result<(), Failure>;
+    /// Whether this reaches no sender ([`Detached`]).
+    fn is_detached(&self) -> bool {
+        false
+    }
+}
+
+/// No sender side during a blocking line: its bytes and the answers wait
+/// for [`Front::poll`]'s caller.
+pub struct Detached;
+
+impl SenderIo for Detached {
+    fn read_now(&mut self, _: &mut [u8]) -> Result<Option<usize>, Failure> {
+        Ok(Some(0))
+    }
+
+    fn write(&mut self, _: &str) -> Result<(), Failure> {
+        Ok(())
+    }
+
+    fn is_detached(&self) -> bool {
+        true
+    }
+}
+
 /// The interpreter's machine: the open path on the link.
 struct LinkMachine<'a> {
-    session: &'a mut Session,
-    path: &'a mut PathState,
-    f_max_bits: i64,
-    f_min_bits: i64,
-    /// `$C`: everything is checked, nothing is sent.
-    check: bool,
+    front: &'a mut Front,
+    io: &'a mut dyn SenderIo,
+    /// Whether `io` reaches the sender (not [`Detached`]).
+    attached: bool,
     /// The interpreter's warnings, for `[MSG:…]` lines.
     warnings: Vec<String>,
     /// A probing move's outcome, for `[PRB:…]` and `$#`.
@@ -123,21 +155,46 @@ fn grid(p: [f64; 3]) -> Option<[i64; 3]> {
 
 impl LinkMachine<'_> {
     fn client(&mut self) -> &mut Client {
-        self.session.conn.client_mut()
+        self.front.session.conn.client_mut()
     }
 
     fn open_path(&mut self) {
-        if !self.path.open {
-            let (f_max, f_min, here) = (self.f_max_bits, self.f_min_bits, self.path.here);
+        let path = self.front.path;
+        if !path.open {
+            let (f_max, f_min) = (self.front.f_max_bits, self.front.f_min_bits);
             self.client().start_path(f_max, f_min);
-            self.client().point(here, None);
-            self.path.open = true;
-            self.path.restart = false;
-        } else if self.path.restart {
-            let here = self.path.here;
-            self.client().point(here, None);
-            self.path.restart = false;
+            self.client().point(path.here, None);
+            self.front.path.open = true;
+            self.front.path.restart = false;
+        } else if path.restart {
+            self.client().point(path.here, None);
+            self.front.path.restart = false;
         }
+    }
+
+    /// The sender's bytes and the answers while a probing move runs (see
+    /// [`SenderIo`]): real-time commands act at once; a soft reset or the
+    /// sender going away stops the move ([`Front::interrupted`]).
+    fn pump_sender(&mut self) -> Result<(), Failure> {
+        if !self.attached {
+            return Ok(());
+        }
+        let mut buf = [0u8; 512];
+        while self.front.wants_bytes() {
+            match self.io.read_now(&mut buf)? {
+                Some(0) => break,
+                Some(n) => self.front.on_bytes(&buf[..n])?,
+                None => {
+                    self.front.interrupt()?;
+                    break;
+                }
+            }
+        }
+        let out = self.front.take_output();
+        if !out.is_empty() {
+            self.io.write(&out)?;
+        }
+        Ok(())
     }
 
     /// Run the probing move queued as `seq` (`HostMsg::Probe`) to its
@@ -147,7 +204,7 @@ impl LinkMachine<'_> {
     /// else received is kept for the front ([`Self::seen`]). Bounded by
     /// the move's time at its feed, with a margin.
     fn await_probe(&mut self, seq: u32, p: &ProbeMove) -> anyhow::Result<Option<[f64; 3]>> {
-        let here = self.path.here.map(crate::view::bits_f64);
+        let here = self.front.path.here.map(crate::view::bits_f64);
         let dist = (0..3)
             .map(|i| (p.target_mm[i] - here[i]).powi(2))
             .sum::<f64>()
@@ -161,8 +218,16 @@ impl LinkMachine<'_> {
             if now > deadline {
                 bail!("line {}: G38: no probe report from the controller", p.line);
             }
+            if let Err(f) = self.pump_sender() {
+                let e = fail(f.clone());
+                self.failure = Some(f);
+                return Err(e);
+            }
+            if self.front.interrupted {
+                bail!("line {}: G38: stopped by a reset", p.line);
+            }
             if now >= next_status {
-                let r = self.session.send(&HostMsg::StatusQuery);
+                let r = self.front.session.send(&HostMsg::StatusQuery);
                 if let Err(f) = r {
                     let e = fail(f.clone());
                     self.failure = Some(f);
@@ -171,11 +236,12 @@ impl LinkMachine<'_> {
                 next_status = now + STATUS_PERIOD;
             }
             let r = self
+                .front
                 .session
                 .conn
                 .transmit()
                 .map_err(Failure::from)
-                .and_then(|_| self.session.recv(Duration::from_millis(5)));
+                .and_then(|_| self.front.session.recv(Duration::from_millis(5)));
             let m = match r {
                 Ok(Some(m)) => m,
                 Ok(None) => continue,
@@ -216,6 +282,15 @@ impl LinkMachine<'_> {
                         crate::machine::alarm_text(code)
                     );
                 }
+                DeviceMsg::Status(st) => {
+                    // For the status reports answered meanwhile.
+                    self.front.status = st;
+                    self.seen.push(m);
+                }
+                DeviceMsg::Machine(ms) => {
+                    self.front.machine = ms;
+                    self.seen.push(m);
+                }
                 _ => self.seen.push(m),
             }
         }
@@ -231,11 +306,11 @@ impl Machine for LinkMachine<'_> {
                 let Some(cap) = cap else {
                     // Where the tool is (the start, or after a probe or a
                     // jog): the next move starts here.
-                    self.path.here = bits;
+                    self.front.path.here = bits;
                     return Ok(());
                 };
-                if bits == self.path.here || self.check {
-                    self.path.here = bits;
+                if bits == self.front.path.here || self.front.check {
+                    self.front.path.here = bits;
                     return Ok(());
                 }
                 let cap_bits = FeedMmPerMin::from_f64(cap).0.to_bits();
@@ -243,19 +318,19 @@ impl Machine for LinkMachine<'_> {
                     bail!("line {line}: a feed or coordinate the controller refuses");
                 }
                 self.open_path();
-                self.path.last_seq = Some(self.client().point(bits, Some(cap_bits)));
-                self.path.here = bits;
+                self.front.path.last_seq = Some(self.client().point(bits, Some(cap_bits)));
+                self.front.path.here = bits;
             }
             Item::Event { line, event } => {
                 let cmd = machine_cmd(&event).ok_or_else(|| {
                     anyhow!("line {line}: {event:?}: beyond what the controller takes")
                 })?;
-                if self.check {
+                if self.front.check {
                     return Ok(());
                 }
                 self.open_path();
-                self.path.last_seq = Some(self.client().machine(cmd));
-                self.path.restart = true;
+                self.front.path.last_seq = Some(self.client().machine(cmd));
+                self.front.path.restart = true;
             }
             Item::Warning { text, .. } => self.warnings.push(text),
         }
@@ -264,10 +339,10 @@ impl Machine for LinkMachine<'_> {
 
     /// A probing move (Grbl's `mc_probe_cycle`): the open path ends, the
     /// controller runs the move from rest (`HostMsg::Probe`) and reports
-    /// where the probe tripped; this waits for it, polling the link. The
-    /// sender's bytes wait meanwhile (Grbl answers status reports and
-    /// real-time commands during a probe; here they are answered when it
-    /// ends: the safety inputs act on the controller regardless). Grbl
+    /// where the probe tripped; this waits for it, polling the link and
+    /// serving the sender's real-time bytes meanwhile (status reports,
+    /// hold, resume, overrides; a soft reset stops the move), as Grbl
+    /// does during `mc_probe_cycle`. Grbl
     /// then syncs its parser to where the tool stopped, past the trip by
     /// the deceleration; here the interpreter takes the trip position, and
     /// the next path starts there (the controller moves the tool back by
@@ -277,7 +352,7 @@ impl Machine for LinkMachine<'_> {
     fn probe(&mut self, p: &ProbeMove) -> anyhow::Result<Option<[f64; 3]>> {
         let line = p.line;
         let minor = p.kind.minor();
-        if self.check {
+        if self.front.check {
             return Ok(Some(p.target_mm));
         }
         let target = grid(p.target_mm)
@@ -286,14 +361,14 @@ impl Machine for LinkMachine<'_> {
         if controller::probe::probe_from_link(0, target, feed, true, true).is_none() {
             bail!("line {line}: G38.{minor}: a feed or coordinate the controller refuses");
         }
-        if self.path.open {
+        if self.front.path.open {
             self.client().end_path();
-            self.path.open = false;
-            self.path.restart = false;
+            self.front.path.open = false;
+            self.front.path.restart = false;
         }
         let (toward, error) = (p.kind.toward(), p.kind.error_if_not_tripped());
         let seq = self.client().probe(target, feed, toward, error);
-        self.path.last_seq = Some(seq);
+        self.front.path.last_seq = Some(seq);
         self.await_probe(seq, p)
     }
 }
@@ -304,7 +379,14 @@ pub struct Front {
     credit_size: u32,
     f_max_bits: i64,
     f_min_bits: i64,
-    interp: Interp,
+    /// Out of its place only while it runs a line (`gcode`).
+    interp: Option<Interp>,
+    /// The work offset when the interpreter last ran, for status reports
+    /// while it runs.
+    wco_mm: [f64; 3],
+    /// A soft reset, or the sender gone, while a line blocked: the line
+    /// ends and the reset follows.
+    interrupted: bool,
     rx: Receiver,
     lines: VecDeque<Line>,
     /// Bytes of the lines waiting (the `Bf:` figure's RX part).
@@ -363,7 +445,9 @@ impl Front {
             credit_size,
             f_max_bits,
             f_min_bits,
-            interp,
+            wco_mm: interp.work_offset_mm(),
+            interp: Some(interp),
+            interrupted: false,
             rx: Receiver::new(),
             lines: VecDeque::new(),
             line_bytes: 0,
@@ -391,6 +475,29 @@ impl Front {
             front: FrontSettings::default(),
             probe: report::Probe::default(),
         })
+    }
+
+    fn interp(&mut self) -> &mut Interp {
+        self.interp
+            .as_mut()
+            .expect("the interpreter is out of place only while it runs a line")
+    }
+
+    fn interp_ref(&self) -> &Interp {
+        self.interp
+            .as_ref()
+            .expect("the interpreter is out of place only while it runs a line")
+    }
+
+    /// A soft reset or the sender gone while a line blocks the front (a
+    /// probing move): the motion stops under control now, the reset itself
+    /// follows once the line has returned.
+    fn interrupt(&mut self) -> Result<(), Failure> {
+        if !self.interrupted {
+            self.interrupted = true;
+            self.cancel_motion()?;
+        }
+        Ok(())
     }
 
     /// The controller's last status.
@@ -447,10 +554,17 @@ impl Front {
         self.line_bytes + self.rx.pending() < RX_BUFFER_SIZE
     }
 
-    /// Do what can be done now: the link, the lines, the answers.
+    /// Do what can be done now: the link, the lines, the answers. A line
+    /// that blocks (a probing move) holds the sender's bytes and the
+    /// answers until it ends: [`Front::poll_with`] serves them meanwhile.
     pub fn poll(&mut self) -> Result<(), Failure> {
+        self.poll_with(&mut Detached)
+    }
+
+    /// [`Front::poll`], with the sender's side served while a line blocks.
+    pub fn poll_with(&mut self, io: &mut dyn SenderIo) -> Result<(), Failure> {
         self.link_io()?;
-        self.run_lines()?;
+        self.run_lines(io)?;
         self.end_path_when_quiet();
         self.session.conn.transmit().map_err(Failure::from)?;
         self.release_answers();
@@ -506,7 +620,7 @@ impl Front {
             DeviceMsg::Alarm { code, .. } if self.alarm != Some(code) => self.on_alarm(code),
             DeviceMsg::Homed { pos_mm, .. } => {
                 self.homing = false;
-                self.interp
+                self.interp()
                     .set_position_mm(pos_mm.map(crate::view::bits_f64));
                 self.path.here = pos_mm.map(link::batch::to_grid);
             }
@@ -549,7 +663,7 @@ impl Front {
 
     fn sync_position(&mut self) {
         let here = self.status.pos_mm.map(crate::view::bits_f64);
-        self.interp.set_position_mm(here);
+        self.interp().set_position_mm(here);
         self.path.here = self.status.pos_mm.map(link::batch::to_grid);
     }
 
@@ -584,6 +698,7 @@ impl Front {
                     self.out.push_str(&report::message("resumed"));
                 }
             }
+            Realtime::Reset if self.interp.is_none() => self.interrupt()?,
             Realtime::Reset => self.soft_reset(true)?,
             Realtime::JogCancel => {
                 if self.jog {
@@ -644,7 +759,8 @@ impl Front {
             self.session.send(&HostMsg::Override { percent: 100 })?;
         }
         let here = self.status.pos_mm.map(crate::view::bits_f64);
-        self.interp.abort(here);
+        self.interp().abort(here);
+        self.wco_mm = self.interp_ref().work_offset_mm();
         self.path = PathState {
             here: self.status.pos_mm.map(link::batch::to_grid),
             ..PathState::default()
@@ -701,7 +817,10 @@ impl Front {
         report::Status {
             state: self.state(),
             mpos_mm: self.status.pos_mm.map(crate::view::bits_f64),
-            wco_mm: self.interp.work_offset_mm(),
+            wco_mm: self
+                .interp
+                .as_ref()
+                .map_or(self.wco_mm, |i| i.work_offset_mm()),
             planner_free: free.clamp(0, u16::MAX as i32) as u16,
             rx_free: RX_BUFFER_SIZE.saturating_sub(self.line_bytes + self.rx.pending()) as u16,
             line: None,
@@ -790,7 +909,7 @@ impl Front {
         }
     }
 
-    fn run_lines(&mut self) -> Result<(), Failure> {
+    fn run_lines(&mut self, io: &mut dyn SenderIo) -> Result<(), Failure> {
         while let Some(line) = self.lines.front() {
             if self.pause.is_some() || self.resync || self.host_queue() > HOST_QUEUE_MAX {
                 return Ok(());
@@ -807,12 +926,12 @@ impl Front {
                 break;
             };
             self.line_bytes = self.line_bytes.saturating_sub(line.raw.len() + 1);
-            self.run_line(&line)?;
+            self.run_line(&line, io)?;
         }
         Ok(())
     }
 
-    fn run_line(&mut self, line: &Line) -> Result<(), Failure> {
+    fn run_line(&mut self, line: &Line, io: &mut dyn SenderIo) -> Result<(), Failure> {
         if line.overflow {
             self.answer(report::error(ErrorCode::Overflow), Release::Now);
             return Ok(());
@@ -826,7 +945,7 @@ impl Front {
         };
         match cmd {
             Command::Empty => self.answer(report::ok(), Release::Now),
-            Command::Gcode(text) => self.gcode(&text)?,
+            Command::Gcode(text) => self.gcode(&text, io)?,
             Command::Help => {
                 self.answer(report::help() + &report::ok(), Release::Now);
             }
@@ -904,12 +1023,12 @@ impl Front {
         Ok(())
     }
 
-    fn gcode(&mut self, text: &str) -> Result<(), Failure> {
+    fn gcode(&mut self, text: &str, io: &mut dyn SenderIo) -> Result<(), Failure> {
         if self.locked {
             self.answer(report::error(ErrorCode::SystemGcLock), Release::Now);
             return Ok(());
         }
-        let ready = match self.interp.push_line(text) {
+        let ready = match self.interp().push_line(text) {
             Ok(r) => r,
             Err(e) => {
                 self.refuse_gcode(&e);
@@ -921,29 +1040,37 @@ impl Front {
             self.answer(report::ok(), Release::Now);
             return Ok(());
         }
+        let mut interp = self.interp.take().expect("in place between lines");
+        self.wco_mm = interp.work_offset_mm();
+        let before = self.path.last_seq;
+        let attached = !io.is_detached();
         let mut m = LinkMachine {
-            session: &mut self.session,
-            path: &mut self.path,
-            f_max_bits: self.f_max_bits,
-            f_min_bits: self.f_min_bits,
-            check: self.check,
+            front: self,
+            io,
+            attached,
             warnings: Vec::new(),
             probed: None,
             probe_alarm: None,
             seen: Vec::new(),
             failure: None,
         };
-        let before = m.path.last_seq;
-        let r = self.interp.run_with(&mut m);
+        let r = interp.run_with(&mut m);
         let warnings = std::mem::take(&mut m.warnings);
         let (probed, probe_alarm) = (m.probed, m.probe_alarm);
         let (seen, failure) = (std::mem::take(&mut m.seen), m.failure.take());
+        self.wco_mm = interp.work_offset_mm();
+        self.interp = Some(interp);
         let after = self.path.last_seq;
         if let Some(f) = failure {
             return Err(f);
         }
         for msg in &seen {
             self.on_message(msg);
+        }
+        if std::mem::take(&mut self.interrupted) {
+            // The line and everything after it dropped, as Grbl's reset
+            // drops them (no answer for it).
+            return self.soft_reset(true);
         }
         for w in warnings {
             self.answer(report::message(&w), Release::Now);
@@ -966,7 +1093,7 @@ impl Front {
             return Ok(());
         }
         let words = words_of(text);
-        if let Some(msg) = pause_of(&words, &self.interp.modes()) {
+        if let Some(msg) = pause_of(&words, &self.interp_ref().modes()) {
             self.end_path();
             self.pause = Some(Pause::Program(msg.clone()));
             self.answer(report::message(&msg) + &report::ok(), Release::AtRest);
@@ -1001,12 +1128,12 @@ impl Front {
             self.answer(report::error(ErrorCode::SystemGcLock), Release::Now);
             return Ok(());
         }
-        let modes = self.interp.modes();
+        let modes = self.interp_ref().modes();
         let inches = j.inches.unwrap_or(modes.inches);
         let incremental = j.incremental.unwrap_or(!modes.absolute);
         let scale = if inches { 25.4 } else { 1.0 };
-        let here = self.interp.position_mm();
-        let wco = self.interp.work_offset_mm();
+        let here = self.interp_ref().position_mm();
+        let wco = self.interp_ref().work_offset_mm();
         let mut target = here;
         for i in 0..3 {
             if let Some(v) = j.axes[i] {
@@ -1045,14 +1172,14 @@ impl Front {
         let seq = c.point(to, Some(cap));
         c.end_path();
         self.path.here = to;
-        self.interp.set_position_mm(target);
+        self.interp().set_position_mm(target);
         self.jog = true;
         self.answer(report::ok(), Release::Sent(seq));
         Ok(())
     }
 
     fn modal(&self) -> report::Modal {
-        let m: Modes = self.interp.modes();
+        let m: Modes = self.interp_ref().modes();
         report::Modal {
             motion: motion_mode(m.motion),
             wcs: m.coord.min(5) as u8,
@@ -1077,9 +1204,9 @@ impl Front {
     fn parameters(&self) -> report::Parameters {
         let p = |base: u32| {
             [
-                self.interp.param(base),
-                self.interp.param(base + 1),
-                self.interp.param(base + 2),
+                self.interp_ref().param(base),
+                self.interp_ref().param(base + 1),
+                self.interp_ref().param(base + 2),
             ]
         };
         let mut wcs = [[0.0; 3]; 6];
@@ -1091,7 +1218,7 @@ impl Front {
             g28: p(5161),
             g30: p(5181),
             g92: p(5211),
-            tlo: self.interp.modes().tool_length_mm,
+            tlo: self.interp_ref().modes().tool_length_mm,
             probe: self.probe,
         }
     }

@@ -22,7 +22,7 @@ use gcode_interp::GcodeSettings;
 
 use crate::exit::{Exit, Failure};
 use crate::stream::{Options, Session};
-use front::Front;
+use front::{Front, SenderIo};
 use port::{Got, Port};
 
 /// Where senders connect and how G-code is read.
@@ -42,6 +42,38 @@ pub struct ServeOptions {
 struct Served {
     port: Box<dyn Port>,
     connected: bool,
+}
+
+/// The connected senders while a line blocks the front (a probing
+/// move): their bytes read, the answers written. A sender that connects
+/// meanwhile is greeted once the line has ended.
+struct Attached<'a>(&'a mut [Served]);
+
+impl SenderIo for Attached<'_> {
+    fn read_now(&mut self, buf: &mut [u8]) -> Result<Option<usize>, Failure> {
+        let mut any = false;
+        for p in self.0.iter_mut().filter(|p| p.connected) {
+            let got = p
+                .port
+                .read_now(buf)
+                .map_err(|e| Failure::new(Exit::Error, format!("{}: {e}", p.port.describe())))?;
+            match got {
+                Got::Data(n) => return Ok(Some(n)),
+                Got::Nothing => any = true,
+                Got::NoSender => p.connected = false,
+            }
+        }
+        Ok(any.then_some(0))
+    }
+
+    fn write(&mut self, text: &str) -> Result<(), Failure> {
+        for p in self.0.iter_mut().filter(|p| p.connected) {
+            p.port
+                .send(text.as_bytes())
+                .map_err(|e| Failure::new(Exit::Error, format!("{}: {e}", p.port.describe())))?;
+        }
+        Ok(())
+    }
 }
 
 /// Serve senders over `session` (connected, not yet handshaken) until
@@ -119,14 +151,11 @@ pub fn serve(
                 }
             }
         }
-        front.poll()?;
+        let mut io = Attached(&mut ports);
+        front.poll_with(&mut io)?;
         let out = front.take_output();
         if !out.is_empty() {
-            for p in ports.iter_mut().filter(|p| p.connected) {
-                p.port.send(out.as_bytes()).map_err(|e| {
-                    Failure::new(Exit::Error, format!("{}: {e}", p.port.describe()))
-                })?;
-            }
+            io.write(&out)?;
         }
         if !ports.iter().any(|p| p.connected) {
             std::thread::sleep(Duration::from_millis(2));
