@@ -1219,3 +1219,46 @@ fn a_node_is_not_passed_faster_when_the_speed_starts_on_its_envelope() {
     let ticks = drive(&constant(&pts, 807), cfg, |_, _| {});
     assert_physical("regression", &peaks(&ticks, &cfg, accel), &cfg);
 }
+
+/// The trade-off the fixed tangential share `ρ` makes (README, "Velocity
+/// planner"): the corner limit gives each axis `A_a − ρ·min A·|t_a|` for
+/// the turn, the executor `ρ·min A` along the path, and the default
+/// smoothing window is the longest whose margins (`n·ρA` a step) fit the
+/// tolerance. Cycle times at F 5000 for `ρ` from 0.2 to 0.8 at the path
+/// tolerances 0.001 and 0.01 mm, every limit held. A measurement, not a
+/// check of the defaults: `--ignored` to print it.
+#[test]
+#[ignore]
+fn tangential_share_trade_off() {
+    let short = short_segments();
+    let mut paths: Vec<(&str, Vec<MotionPoint>)> = Vec::new();
+    for name in ["infinity", "trident", "butterfly"] {
+        paths.push((name, constant(&shape(name), 5000)));
+    }
+    paths.push(("short_segments.ngc", constant(&short, 5000)));
+    for rho in [0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8] {
+        for tol in [0.001, 0.01] {
+            let cfg = MotionConfig {
+                tangential_share: Fx::from_num(rho),
+                chord_tolerance_mm: fixed::types::I32F32::from_num(tol),
+                ..MotionConfig::default()
+            };
+            let accel: f64 = Motion::<8>::new(cfg).unwrap().accel_limit_mm_s2().to_num();
+            let mut line = format!(
+                "ρ {rho:.1}, P {tol}, smoothing {}:",
+                cfg.smoothing().unwrap()
+            );
+            for (name, points) in &paths {
+                let ticks = drive(points, cfg, |_, _| {});
+                let p = peaks(&ticks, &cfg, accel);
+                assert_physical(name, &p, &cfg);
+                line += &format!(
+                    " {name} {:.3} s (a/A {:.3});",
+                    ticks.len() as f64 * ts(&cfg),
+                    p.axis_acc
+                );
+            }
+            eprintln!("{line}");
+        }
+    }
+}
