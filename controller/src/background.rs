@@ -727,6 +727,10 @@ impl<'a> Background<'a> {
                 c.hold = c.hold.filter(|h| *h);
             }
             self.force.apply(&mut c);
+            if let Some(p) = c.spindle_percent.take() {
+                self.spindle.override_percent = p;
+                io.outputs(self.spindle.outputs(&self.config));
+            }
             if c != Controls::default() {
                 for input in self.planning.apply(c).into_iter().flatten() {
                     report(link, input, notice);

@@ -13,6 +13,8 @@ pub struct Controls {
     pub hold: Option<bool>,
     /// New feed override, percent (already range-checked).
     pub override_percent: Option<u16>,
+    /// New spindle speed override, percent (already range-checked).
+    pub spindle_percent: Option<u16>,
     /// Peak forces `[F_x, F_y]` of the last revolution (non-negative,
     /// checked); a sample not yet taken is replaced by the next one.
     pub force: Option<[ForceN; 2]>,

@@ -209,6 +209,7 @@ impl<'a> Replay<'a> {
         self.planning.apply(Controls {
             hold: Some(false),
             override_percent: Some(100),
+            spindle_percent: None,
             force: None,
         });
         let mut run = Run {

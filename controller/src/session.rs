@@ -332,6 +332,7 @@ impl DeviceLink {
             controls: Controls {
                 hold: None,
                 override_percent: None,
+                spindle_percent: None,
                 force: None,
             },
             info: BackgroundInfo {
@@ -351,6 +352,7 @@ impl DeviceLink {
                     speed_rpm: 0,
                     flood: false,
                     mist: false,
+                    override_percent: 100,
                 },
             },
             abort: false,
@@ -612,6 +614,14 @@ impl DeviceLink {
                     return Err(ErrorCode::OutOfRange);
                 }
                 self.controls.override_percent = Some(percent);
+                return Ok(Reply::Ack);
+            }
+            HostMsg::SpindleOverride { percent } => {
+                let range = link::SPINDLE_OVERRIDE_MIN_PERCENT..=link::SPINDLE_OVERRIDE_MAX_PERCENT;
+                if !range.contains(&percent) {
+                    return Err(ErrorCode::OutOfRange);
+                }
+                self.controls.spindle_percent = Some(percent);
                 return Ok(Reply::Ack);
             }
             HostMsg::Force { fx_n_q16, fy_n_q16 } => {

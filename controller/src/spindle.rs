@@ -82,7 +82,7 @@ pub fn pwm_compare(duty_q16: u16, arr: u16) -> u16 {
 }
 
 /// The spindle's and coolant's state.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Spindle {
     /// Direction, or off.
     pub dir: SpindleDir,
@@ -92,6 +92,24 @@ pub struct Spindle {
     pub flood: bool,
     /// Mist coolant.
     pub mist: bool,
+    /// Speed override, percent of the programmed speed (`HostMsg::
+    /// SpindleOverride`, Grbl's 0x99-0x9D): the output runs at the
+    /// programmed speed times this, as Grbl's `spindle_set_speed` scales
+    /// by `sys.spindle_speed_ovr`; it outlasts an M5 and an alarm (as
+    /// Grbl's lasts until a reset, which the host sends as 100 %).
+    pub override_percent: u16,
+}
+
+impl Default for Spindle {
+    fn default() -> Self {
+        Spindle {
+            dir: SpindleDir::Off,
+            speed_rpm: 0,
+            flood: false,
+            mist: false,
+            override_percent: 100,
+        }
+    }
 }
 
 impl Spindle {
@@ -124,7 +142,16 @@ impl Spindle {
     /// Everything off (an alarm: Grbl's `mc_reset` stops the spindle and
     /// the coolant).
     pub fn stop(&mut self) {
-        *self = Spindle::default();
+        *self = Spindle {
+            override_percent: self.override_percent,
+            ..Spindle::default()
+        };
+    }
+
+    /// The speed the output runs at: the programmed one with the
+    /// override, rpm (saturating).
+    pub fn output_rpm(&self) -> u32 {
+        (self.speed_rpm as u64 * self.override_percent as u64 / 100).min(u32::MAX as u64) as u32
     }
 
     /// The outputs for this state.
@@ -133,7 +160,11 @@ impl Spindle {
         MachineOutputs {
             spindle_on: on,
             ccw: self.dir == SpindleDir::Ccw,
-            duty_q16: if on { duty_q16(self.speed_rpm, c) } else { 0 },
+            duty_q16: if on {
+                duty_q16(self.output_rpm(), c)
+            } else {
+                0
+            },
             flood: self.flood,
             mist: self.mist,
         }
@@ -161,6 +192,30 @@ mod tests {
             assert!(d >= last);
             last = d;
         }
+    }
+
+    #[test]
+    fn the_override_scales_the_output_and_outlasts_a_stop() {
+        let mut c = Config::DEFAULT;
+        c.set(30, 24_000).unwrap();
+        c.set(31, 0).unwrap();
+        let mut s = Spindle::default();
+        s.apply(MachineCmd::Spindle {
+            dir: SpindleDir::Cw,
+            speed_rpm: 10_000,
+        });
+        let at = |s: &Spindle| s.outputs(&c).duty_q16;
+        let full = at(&s);
+        s.override_percent = 50;
+        assert_eq!(s.output_rpm(), 5_000);
+        assert_eq!(at(&s), duty_q16(5_000, &c));
+        s.override_percent = 200;
+        assert_eq!(at(&s), duty_q16(20_000, &c));
+        assert!(at(&s) > full);
+        assert_eq!(s.speed_rpm, 10_000, "the programmed speed is kept");
+        s.stop();
+        assert_eq!(s.override_percent, 200);
+        assert_eq!(s.outputs(&c).duty_q16, 0);
     }
 
     #[test]

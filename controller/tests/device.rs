@@ -330,6 +330,10 @@ fn bad_frames_get_error_replies_and_change_nothing() {
             ErrorCode::OutOfRange,
         ),
         (
+            frame(&HostMsg::SpindleOverride { percent: 201 }),
+            ErrorCode::OutOfRange,
+        ),
+        (
             frame(&HostMsg::Force {
                 fx_n_q16: -1,
                 fy_n_q16: 0,

@@ -254,6 +254,15 @@ pub enum HostMsg {
         /// G38.4).
         error_if_missed: bool,
     },
+    /// Spindle speed override, percent of the programmed speed,
+    /// [`SPINDLE_OVERRIDE_MIN_PERCENT`]..=[`SPINDLE_OVERRIDE_MAX_PERCENT`]
+    /// (immediate, Grbl's 0x99-0x9D): the spindle's output follows at once,
+    /// the programmed speed is kept. (Appended last: older messages keep
+    /// their encoding.)
+    SpindleOverride {
+        /// Percent.
+        percent: u16,
+    },
 }
 
 /// A machine command of the path stream ([`HostMsg::Machine`]).
@@ -428,6 +437,12 @@ pub struct MachineStatus {
 pub const OVERRIDE_MIN_PERCENT: u16 = 10;
 /// Largest feed override, percent.
 pub const OVERRIDE_MAX_PERCENT: u16 = 200;
+/// Smallest spindle speed override, percent (Grbl's
+/// `MIN_SPINDLE_SPEED_OVERRIDE`).
+pub const SPINDLE_OVERRIDE_MIN_PERCENT: u16 = 10;
+/// Largest spindle speed override, percent (Grbl's
+/// `MAX_SPINDLE_SPEED_OVERRIDE`).
+pub const SPINDLE_OVERRIDE_MAX_PERCENT: u16 = 200;
 
 /// What the motion is doing (the firmware's planner state: `Done` and
 /// `Idle` are both [`Motion::Idle`]).
@@ -1009,6 +1024,7 @@ mod tests {
                 toward: true,
                 error_if_missed: true,
             },
+            HostMsg::SpindleOverride { percent: u16::MAX },
         ] {
             roundtrip(m);
         }

@@ -39,6 +39,8 @@ pub struct SimReport {
     pub last_heard_tick: u64,
     /// The tick at which the axes last moved.
     pub last_move_tick: u64,
+    /// The spindle and coolant outputs at the end.
+    pub outputs: Option<controller::spindle::MachineOutputs>,
 }
 
 /// The simulated controller's thread.
@@ -283,5 +285,6 @@ fn run(
         positions: dev.axes.sent(),
         last_heard_tick,
         last_move_tick,
+        outputs: dev.machine.outputs.last().map(|o| o.1),
     }
 }

@@ -14,7 +14,7 @@ use sender::stream::{Options, Session};
 struct Rig {
     front: Front,
     out: String,
-    _sim: SimHandle,
+    sim: SimHandle,
 }
 
 fn rig(speed: f64) -> Rig {
@@ -52,7 +52,7 @@ fn rig_with(
     Rig {
         front,
         out: String::new(),
-        _sim: h,
+        sim: h,
     }
 }
 
@@ -391,6 +391,47 @@ fn g38_2_reports_the_trip_and_sets_a_work_zero_on_the_plate() {
     r.send(b"$#\n");
     let p = r.until(Duration::from_secs(2), |o| o.contains("ok"));
     assert_eq!(prb(&p), (at, 1), "{p}");
+}
+
+/// Spindle overrides (0x9A +10 %, 0x9C +1 %, 0x9B -10 %) act on the
+/// controller's spindle output at once, the programmed speed kept; `FS:`
+/// reports the speed it runs at (Grbl's `sys.spindle_speed`). Rapid
+/// overrides are only reported.
+#[test]
+fn spindle_overrides_act_on_the_spindle_output() {
+    let mut r = rig(10.0);
+    r.until(Duration::from_secs(1), |o| o.contains("Grbl"));
+    r.send(b"$30=10000\n$31=0\nM3 S5000\nG4 P0.1\n");
+    r.until(Duration::from_secs(10), |o| count(o, "ok\r\n") == 4);
+    r.send(&[0x9A, 0x9A, 0x9C, 0x9B, 0x96]);
+    let s = r.until(Duration::from_secs(2), |_| true);
+    assert!(!s.contains("error"), "{s}");
+    // `Ov:` comes when it changes, the spindle figure with the machine
+    // status the front polls.
+    let (mut ov, mut fs) = (false, false);
+    let t0 = Instant::now();
+    while !(ov && fs) {
+        let st = r.status();
+        ov |= st.contains("Ov:100,50,111");
+        fs |= st.contains("FS:0,5550");
+        assert!(t0.elapsed() < Duration::from_secs(5), "{st}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    r.send(b"G4 P0.1\n");
+    r.until(Duration::from_secs(10), |o| o.contains("ok"));
+    let out = r.sim.finish().outputs.unwrap();
+    let c = {
+        let mut c = controller::config::Config::DEFAULT;
+        c.set(30, 10_000).unwrap();
+        c.set(31, 0).unwrap();
+        c
+    };
+    assert!(out.spindle_on);
+    assert_eq!(
+        out.duty_q16,
+        controller::spindle::duty_q16(5550, &c),
+        "{out:?}"
+    );
 }
 
 /// A sender's side scripted in time: bytes handed over once due, what

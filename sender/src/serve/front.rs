@@ -710,12 +710,27 @@ impl Front {
                 self.realtime(Realtime::FeedHold)?;
             }
             other => {
+                let before = self.overrides;
                 if self.overrides.apply(other) {
                     self.reporter.flag_overrides();
-                    let percent = u16::from(self.overrides.feed);
-                    self.session.send(&HostMsg::Override { percent })?;
+                    self.send_overrides(before)?;
                 }
             }
+        }
+        Ok(())
+    }
+
+    /// The overrides that differ from `before` to the controller: feed and
+    /// spindle act there at once; the rapid override is only reported
+    /// (the controller does not tell rapids from feeds).
+    fn send_overrides(&mut self, before: Overrides) -> Result<(), Failure> {
+        if self.overrides.feed != before.feed {
+            let percent = u16::from(self.overrides.feed);
+            self.session.send(&HostMsg::Override { percent })?;
+        }
+        if self.overrides.spindle != before.spindle {
+            let percent = u16::from(self.overrides.spindle);
+            self.session.send(&HostMsg::SpindleOverride { percent })?;
         }
         Ok(())
     }
@@ -755,8 +770,8 @@ impl Front {
             self.held = false;
         }
         if self.overrides != Overrides::default() {
-            self.overrides = Overrides::default();
-            self.session.send(&HostMsg::Override { percent: 100 })?;
+            let before = std::mem::take(&mut self.overrides);
+            self.send_overrides(before)?;
         }
         let here = self.status.pos_mm.map(crate::view::bits_f64);
         self.interp().abort(here);
@@ -825,7 +840,9 @@ impl Front {
             rx_free: RX_BUFFER_SIZE.saturating_sub(self.line_bytes + self.rx.pending()) as u16,
             line: None,
             feed_mm_per_min: crate::view::bits_f64(self.status.feed_mm_per_min),
-            spindle_rpm: f64::from(self.machine.speed_rpm),
+            // What the spindle runs at, as Grbl's `sys.spindle_speed`.
+            spindle_rpm: f64::from(self.machine.speed_rpm) * f64::from(self.overrides.spindle)
+                / 100.0,
             pins: report::Pins {
                 limits: [
                     self.machine.inputs & 0b0000_0110 != 0,
