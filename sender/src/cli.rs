@@ -68,16 +68,37 @@ pub struct LinkArgs {
     /// board), at this many times real time (`--sim` or `--sim=SPEED`).
     #[arg(long, global = true, num_args = 0..=1, require_equals = true, default_missing_value = "1", value_name = "SPEED")]
     pub sim: Option<f64>,
-    /// With `--sim`: the simulated probe touches the plane z = MM (machine
-    /// coordinates), so that G38.2-.5 have something to find.
-    #[arg(long, global = true, value_name = "MM", allow_negative_numbers = true)]
-    pub sim_probe_z: Option<f64>,
+    /// With `--sim`: the simulated probe touches the plane z = Z (machine
+    /// coordinates, mm), so that G38.2-.5 have something to find; `Z,SX,SY`
+    /// tilts it: z = Z + SX·x + SY·y (slopes in mm/mm), a stock to
+    /// auto-level against.
+    #[arg(
+        long,
+        global = true,
+        value_name = "Z[,SX,SY]",
+        allow_hyphen_values = true
+    )]
+    pub sim_probe_z: Option<String>,
     /// Baud rate of the serial port.
     #[arg(long, global = true, default_value_t = DEFAULT_BAUD)]
     pub baud: u32,
     /// Silence after which the link counts as lost, s.
     #[arg(long, global = true, default_value_t = 5.0, value_name = "S")]
     pub link_timeout: f64,
+}
+
+/// `Z` or `Z,SX,SY`: the simulated probe plane's height at the origin
+/// and its slopes along x and y.
+fn probe_plane(text: &str) -> Option<[f64; 3]> {
+    let v: Vec<f64> = text
+        .split(',')
+        .map(|t| t.trim().parse::<f64>().ok().filter(|v| v.is_finite()))
+        .collect::<Option<_>>()?;
+    match v[..] {
+        [z] => Some([z, 0.0, 0.0]),
+        [z, sx, sy] if sx.abs() <= 1.0 && sy.abs() <= 1.0 => Some([z, sx, sy]),
+        _ => None,
+    }
 }
 
 impl LinkArgs {
@@ -109,20 +130,20 @@ impl LinkArgs {
             return Ok(Target::Unix(u.clone()));
         }
         if let Some(s) = self.sim {
-            if let Some(z) = self.sim_probe_z {
-                if !z.is_finite() {
-                    return Err(Failure::new(
+            let probe = match &self.sim_probe_z {
+                Some(text) => Some(probe_plane(text).ok_or_else(|| {
+                    Failure::new(
                         Exit::Usage,
-                        "--sim-probe-z must be a number of mm",
-                    ));
-                }
-            }
+                        format!("--sim-probe-z {text}: give Z or Z,SX,SY (mm, mm/mm)"),
+                    )
+                })?),
+                None => None,
+            };
             return Ok(Target::Sim {
                 speed: s,
-                probe_z_mm: self.sim_probe_z,
+                probe_mm: probe,
             });
         }
-
         Err(Failure::new(
             Exit::Usage,
             "no link: give --port, --tcp, --unix or --sim",
@@ -969,6 +990,15 @@ fn run_program(
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn the_simulated_probe_plane_is_z_or_z_and_two_slopes() {
+        assert_eq!(probe_plane("-3.25"), Some([-3.25, 0.0, 0.0]));
+        assert_eq!(probe_plane("-3.25,0.02,-0.01"), Some([-3.25, 0.02, -0.01]));
+        for bad in ["", "x", "1,2", "1,2,3", "1,0.1,0.1,0.1", "nan"] {
+            assert_eq!(probe_plane(bad), None, "{bad}");
+        }
+    }
+
     use super::*;
     use crate::stream::Summary;
 
@@ -1053,7 +1083,7 @@ mod tests {
             c.link.target().unwrap(),
             Target::Sim {
                 speed: 3.0,
-                probe_z_mm: None
+                probe_mm: None
             }
         );
         let c = Cli::try_parse_from(["fuzzy-send", "status", "--port", "/dev/x"]).unwrap();
@@ -1108,7 +1138,7 @@ mod tests {
             c.link.target().unwrap(),
             Target::Sim {
                 speed: 5.0,
-                probe_z_mm: None
+                probe_mm: None
             }
         );
         assert_eq!(c.link.link_timeout, 2.0);

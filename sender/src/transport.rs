@@ -37,9 +37,10 @@ pub enum Target {
     Sim {
         /// Speed-up over real time.
         speed: f64,
-        /// The plane the simulated probe touches, machine z in mm (none:
-        /// the probe input never trips).
-        probe_z_mm: Option<f64>,
+        /// The plane the simulated probe touches, machine coordinates:
+        /// z = `[0]` + `[1]`·x + `[2]`·y, mm (none: the probe input never
+        /// trips).
+        probe_mm: Option<[f64; 3]>,
     },
 }
 
@@ -67,6 +68,31 @@ impl Target {
             }
             Target::Sim { .. } => "the simulated controller stopped",
         }
+    }
+}
+
+/// The plane z = `z0 + sx·x + sy·y` as a probe surface: a 2 × 2 height
+/// map (bilinear, so exact for a plane) over ±2 m, level at `z0` beyond.
+fn tilted_plane(z0: f64, sx: f64, sy: f64) -> controller::sim::ProbeSurface {
+    use controller::sim::{HeightMap, ProbeSurface};
+    if sx == 0.0 && sy == 0.0 {
+        return ProbeSurface::plane(z0);
+    }
+    const HALF_MM: f64 = 2000.0;
+    let z = |x: f64, y: f64| z0 + sx * x + sy * y;
+    ProbeSurface {
+        z_mm: z0,
+        map: Some(HeightMap {
+            origin_mm: [-HALF_MM, -HALF_MM],
+            step_mm: [2.0 * HALF_MM, 2.0 * HALF_MM],
+            nx: 2,
+            z_mm: vec![
+                z(-HALF_MM, -HALF_MM),
+                z(HALF_MM, -HALF_MM),
+                z(-HALF_MM, HALF_MM),
+                z(HALF_MM, HALF_MM),
+            ],
+        }),
     }
 }
 
@@ -159,8 +185,8 @@ pub fn open(target: &Target) -> Result<Opened, Failure> {
                 sim: None,
             })
         }
-        Target::Sim { speed, probe_z_mm } => {
-            let probe = probe_z_mm.map(controller::sim::ProbeSurface::plane);
+        Target::Sim { speed, probe_mm } => {
+            let probe = probe_mm.map(|[z, sx, sy]| tilted_plane(z, sx, sy));
             let (s, h) = sim::spawn_with(*speed, move |d| d.probe = probe)
                 .map_err(|e| link_lost(target, e))?;
             let r = s.try_clone().map_err(|e| link_lost(target, e))?;
@@ -175,6 +201,19 @@ pub fn open(target: &Target) -> Result<Opened, Failure> {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn the_tilted_probe_plane_is_exact_where_it_is_probed() {
+        let p = tilted_plane(-3.25, 0.02, -0.01);
+        for (x, y) in [(0.0, 0.0), (3.5, -2.25), (11.5, 1.75), (-250.0, 900.0)] {
+            let want = -3.25 + 0.02 * x - 0.01 * y;
+            assert!((p.height(x, y) - want).abs() < 1e-9, "({x}, {y})");
+        }
+        assert_eq!(
+            tilted_plane(1.0, 0.0, 0.0),
+            controller::sim::ProbeSurface::plane(1.0)
+        );
+    }
+
     use super::*;
 
     struct Flaky(Vec<io::Result<usize>>);

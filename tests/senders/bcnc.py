@@ -71,6 +71,8 @@ def until(what, timeout, pred, app):
 
 
 ERRORS = []
+PLANE = None
+STEP = 0.01
 
 
 def drain(app):
@@ -125,7 +127,13 @@ def settled(app, what):
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--url", required=True)
-    url = ap.parse_args().url
+    ap.add_argument("--plane", help="the simulated stock: Z,SX,SY (machine coordinates)")
+    ap.add_argument("--step", type=float, default=0.01, help="the axes' step, mm")
+    a = ap.parse_args()
+    url = a.url
+    global PLANE, STEP
+    PLANE = tuple(float(v) for v in a.plane.split(",")) if a.plane else None
+    STEP = a.step
 
     app = Headless()
     app.open(url, 115200)
@@ -218,8 +226,51 @@ def main():
         until("WPos 0,0", 15, lambda: (CNC.vars["wx"], CNC.vars["wy"]) == (0.0, 0.0), app)
         log(f"G54 {CNC.vars['G54']}; WPos {CNC.vars['wx']},{CNC.vars['wy']},{CNC.vars['wz']}")
 
-    # A probe step (bCNC's ProbePage G38.2, [PRB:] parsed into CNC.vars)
-    # goes here once the controller has a probe input: it refuses G38.x.
+    @step
+    def autolevel_scan():
+        # bCNC's Probe page, Autolevel: a 3 x 3 grid over 8 x 4 mm scanned
+        # with G38.2 (`Probe.scan`, run as its Scan button runs it), each
+        # [PRB:] parsed into its height matrix (work coordinates). The
+        # simulated stock is the tilted plane the serve was started with.
+        if PLANE is None:
+            return
+        probe = app.gcode.probe
+        probe.xmin, probe.xmax, probe.xn = 0.0, 8.0, 3
+        probe.ymin, probe.ymax, probe.yn = 0.0, 4.0, 3
+        probe.zmin, probe.zmax = -6.0, 1.0
+        probe.xstep()
+        probe.ystep()
+        CNC.vars["prbfeed"] = 200.0
+        CNC.vars["safe"] = 1.0
+        lines = probe.scan()
+        app.running = True
+        app._runLines = sys.maxsize
+        app._gcount = 0
+        n = 1
+        for line in CNC.compile(lines):
+            if line is not None:
+                app.queue.put(line + "\n" if isinstance(line, str) else line)
+                n += 1
+        app._runLines = n
+        app.queue.put((WAIT,))
+        t0 = time.time()
+        until("the scan to end", 120, lambda: app._gcount >= app._runLines, app)
+        app.runEnded()
+        settled(app, "the scan at rest")
+        wco = (CNC.vars["wcox"], CNC.vars["wcoy"], CNC.vars["wcoz"])
+        z0, sx, sy = PLANE
+        worst = 0.0
+        for j in range(probe.yn):
+            for i in range(probe.xn):
+                mx = probe.xmin + i * probe._xstep + wco[0]
+                my = probe.ymin + j * probe._ystep + wco[1]
+                want = z0 + sx * mx + sy * my - wco[2]
+                got = probe.matrix[j][i]
+                worst = max(worst, abs(got - want))
+                if abs(got - want) > STEP + 1e-9:
+                    raise RuntimeError(f"height ({i},{j}): {got}, the stock is at {want:.4f}")
+        log(f"{probe.xn} x {probe.yn} heights in {time.time() - t0:.1f} s, "
+            f"each within {worst:.4f} mm of the stock; matrix {probe.matrix}")
 
     for f in steps:
         t0 = time.time()

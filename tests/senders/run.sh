@@ -25,6 +25,8 @@ cache=${FUZZY_SENDERS_CACHE:-$root/target/senders}
 sim_speed=5
 # The simulated probe plate (machine z, mm) and the simulated axes' step.
 plate_z=-3.25
+# The simulated stock bCNC auto-levels against: z = Z + SX·x + SY·y.
+stock=-3.25,0.02,-0.01
 
 log() { printf '[senders] %s\n' "$*" >&2; }
 
@@ -162,13 +164,13 @@ run_cncjs_qemu() {
 
 run_bcnc() {
     install_bcnc || return 1
-    serve bcnc --no-pty --grbl-tcp 0 || return 1
+    serve bcnc --no-pty --grbl-tcp 0 --sim-probe-z "$stock" || return 1
     local port
     port=$(sed -n 's/.*Grbl 1.1 front on tcp 127.0.0.1:\([0-9]*\).*/\1/p' "$work/serve-bcnc.log")
     [ -n "$port" ] || return 1
     mkdir -p "$work/home"
     HOME=$work/home timeout 420 "$cache/bcnc-venv/bin/python" "$here/bcnc.py" \
-        --url "socket://127.0.0.1:$port"
+        --url "socket://127.0.0.1:$port" --plane="$stock" --step 0.01
 }
 
 for w in "${which[@]}"; do
