@@ -434,6 +434,46 @@ fn spindle_overrides_act_on_the_spindle_output() {
     );
 }
 
+/// grblHAL's manual tool change with a tool-length probe, as a sender's
+/// macro runs it: `T2 M6` holds with a message naming the tool until
+/// cycle start (`~`); then `G38.2` down to the tool setter, and `G43.1 Z`
+/// with the difference from the reference tool (the macro's arithmetic,
+/// here in the interpreter's expression from `#5063`); `$#` shows the
+/// `[TLO:]`, and a move to work Z0 lands the new tool's tip there
+/// (machine z = Z0 + TLO); `G49` cancels it.
+#[test]
+fn a_manual_tool_change_with_a_tool_length_probe() {
+    let mut r = rig_with(10.0, |d| {
+        d.probe = Some(controller::sim::ProbeSurface::plane(-3.25))
+    });
+    r.until(Duration::from_secs(1), |o| o.contains("Grbl"));
+    r.send(b"G21 G90 G1 X2 F3000\nT2 M6\n");
+    let held = r.until(Duration::from_secs(10), |o| o.contains("[MSG:"));
+    assert!(held.contains('2'), "the message names the tool: {held}");
+    std::thread::sleep(Duration::from_millis(100));
+    assert!(r.status().starts_with("<Hold"), "held for the change");
+    r.send(b"~");
+    r.until(Duration::from_secs(5), |o| o.contains("resumed"));
+    // The reference tool touched the setter at -3.0 before: this one is
+    // 0.25 mm longer.
+    r.send(b"G38.2 Z-10 F200\nG43.1 Z[#5063 + 3.0]\nG0 Z0\n");
+    let out = r.until(Duration::from_secs(30), |o| count(o, "ok\r\n") == 3);
+    assert!(!out.contains("error") && !out.contains("ALARM"), "{out}");
+    let (at, n) = prb(&out);
+    assert_eq!(n, 1, "{out}");
+    let s = r.idle(Duration::from_secs(20));
+    let tlo = at[2] + 3.0;
+    assert!((tlo + 0.25).abs() <= 0.01 + 1e-9, "{out}");
+    assert!((mpos(&s)[2] - tlo).abs() < 1e-6, "the tip at work Z0: {s}");
+    r.send(b"$#\n");
+    let p = r.until(Duration::from_secs(2), |o| o.contains("ok"));
+    assert!(p.contains(&format!("[TLO:{tlo:.3}]")), "{p}");
+    r.send(b"G49\nG0 Z0\n");
+    r.until(Duration::from_secs(10), |o| count(o, "ok\r\n") == 2);
+    let s = r.idle(Duration::from_secs(20));
+    assert!(mpos(&s)[2].abs() < 1e-9, "{s}");
+}
+
 /// A sender's side scripted in time: bytes handed over once due, what
 /// the front writes kept.
 struct Script {

@@ -812,10 +812,13 @@ impl Front {
         if self.jog {
             return MachineState::Jog;
         }
+        // A status from before the last commands reached the controller
+        // (its next expected sequence number behind ours) is not rest.
         if moving
             || self.path.open
             || !at_rest(&self.status, self.credit_size)
             || self.session.conn.client().unacked() > 0
+            || self.status.next_seq != self.queue_end()
         {
             return MachineState::Run;
         }
