@@ -307,6 +307,105 @@ fn a_move_sent_right_after_a_soft_reset_starts_where_the_tool_stopped() {
     }
 }
 
+/// Lines beyond the receive buffer (a sender that does not count
+/// characters): `Bf:` reports it full, the front still reads, and a feed
+/// hold behind 1.3 kB of waiting lines acts at once (Grbl's serial
+/// interrupt takes real-time bytes with its buffer full); after `~` every
+/// line is answered once, in order, and the program ends where it should.
+#[test]
+fn a_hold_behind_a_full_receive_buffer_acts_at_once() {
+    let mut r = rig(10.0);
+    r.until(Duration::from_secs(1), |o| o.contains("Grbl"));
+    r.send(b"$10=3\n");
+    r.until(Duration::from_secs(2), |o| o.contains("ok"));
+    let mut prog = String::from("G21 G90 G1 X5 F600\nG4 P1\n");
+    for i in 1..=120 {
+        prog.push_str(&format!("G1 X{} Y{:.1}\n", (i % 2) * 5, f64::from(i) * 0.1));
+    }
+    assert!(prog.len() > 1300);
+    r.send(prog.as_bytes());
+    r.send(b"!");
+    // Everything that comes back is kept, to count the oks.
+    let mut all = String::new();
+    let status = |r: &mut Rig, all: &mut String| -> String {
+        let from = all.len();
+        r.send(b"?");
+        let t0 = Instant::now();
+        loop {
+            r.front.poll().unwrap();
+            all.push_str(&r.front.take_output());
+            if let Some(i) = all[from..].find('<') {
+                if let Some(j) = all[from + i..].find('>') {
+                    return all[from + i..from + i + j + 1].to_string();
+                }
+            }
+            assert!(t0.elapsed() < Duration::from_secs(2), "{all}");
+        }
+    };
+    let s = status(&mut r, &mut all);
+    assert!(s.starts_with("<Hold"), "{s}");
+    assert!(
+        s.contains("Bf:") && (s.contains(",0|") || s.contains(",0>")),
+        "{s}"
+    );
+    assert!(r.front.wants_bytes(), "still reading");
+    // Held: the tool stops and stays.
+    std::thread::sleep(Duration::from_millis(300));
+    let a = mpos(&status(&mut r, &mut all));
+    std::thread::sleep(Duration::from_millis(200));
+    assert_eq!(a, mpos(&status(&mut r, &mut all)));
+    r.send(b"~");
+    let t0 = Instant::now();
+    let s = loop {
+        let s = status(&mut r, &mut all);
+        if s.starts_with("<Idle") && count(&all, "ok\r\n") == 122 {
+            break s;
+        }
+        assert!(t0.elapsed() < Duration::from_secs(60), "{s} {all}");
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    assert!(!all.contains("error"), "{all}");
+    assert_eq!(mpos(&s), [0.0, 12.0, 0.0], "{s}");
+}
+
+/// A sender that goes away mid-program (its port closed) stops the motion
+/// under control and drops the rest; the next sender gets the welcome and
+/// the controller's true state, and its first move starts where the tool
+/// stopped.
+#[test]
+fn a_sender_reconnecting_mid_program_finds_the_machine_stopped() {
+    let mut r = rig(1.0);
+    r.until(Duration::from_secs(1), |o| o.contains("Grbl"));
+    r.send(b"G21 G90 G1 X40 F3000\nY10\nX0\nY0\n");
+    let t0 = Instant::now();
+    while mpos(&r.status())[0] < 5.0 {
+        assert!(t0.elapsed() < Duration::from_secs(10));
+    }
+    r.front.disconnected().unwrap();
+    let _ = r.front.take_output();
+    r.out.clear();
+    // Nobody polls: the front runs on.
+    let t0 = Instant::now();
+    while t0.elapsed() < Duration::from_millis(1500) {
+        r.front.poll().unwrap();
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    let _ = r.front.take_output();
+    r.front.connected();
+    let w = r.until(Duration::from_secs(1), |o| o.contains("Grbl"));
+    assert!(!w.contains("ALARM"), "{w}");
+    let s = r.idle(Duration::from_secs(5));
+    let at = mpos(&s);
+    assert!(
+        at[0] > 5.0 && at[0] < 40.0 && at[1] == 0.0,
+        "stopped on the first line: {s}"
+    );
+    r.send(b"G91 G0 Y2\n");
+    r.until(Duration::from_secs(5), |o| o.contains("ok"));
+    let s = r.idle(Duration::from_secs(10));
+    assert_eq!(mpos(&s), [at[0], 2.0, 0.0], "{s}");
+}
+
 #[test]
 fn a_jog_after_a_jog_cancel_starts_where_the_tool_stopped() {
     let mut r = rig(1.0);

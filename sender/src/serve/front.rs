@@ -47,6 +47,9 @@ use crate::grbl::settings::{self as grbl_settings, FrontSettings};
 use crate::program::machine_cmd;
 use crate::stream::{at_rest, Session};
 
+/// Bytes of lines a sender may send beyond the receive buffer before the
+/// front stops reading it ([`Front::wants_bytes`]).
+pub const RX_BACKLOG_MAX: usize = 64 * 1024;
 /// How often the controller's status is asked for.
 const STATUS_PERIOD: Duration = Duration::from_millis(40);
 /// How often its machine status (alarm, homing, spindle) is asked for.
@@ -548,10 +551,13 @@ impl Front {
         Ok(())
     }
 
-    /// Whether the front takes more bytes now (its receive buffer has
-    /// room): otherwise they wait in the port, and the sender with them.
+    /// Whether the front takes more bytes now. Past the receive buffer
+    /// (`Bf:` reads 0) it still reads, so that real-time bytes behind a
+    /// flood of lines act at once, as Grbl's serial interrupt takes them
+    /// with its buffer full; the lines wait here (where Grbl would drop
+    /// them) up to [`RX_BACKLOG_MAX`], beyond which they wait in the port.
     pub fn wants_bytes(&self) -> bool {
-        self.line_bytes + self.rx.pending() < RX_BUFFER_SIZE
+        self.line_bytes + self.rx.pending() < RX_BACKLOG_MAX
     }
 
     /// Do what can be done now: the link, the lines, the answers. A line
