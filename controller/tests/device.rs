@@ -730,6 +730,43 @@ fn a_flood_of_noise_gets_rate_limited_replies_and_status_is_still_answered() {
     );
 }
 
+/// 100 kB of line noise without a delimiter, then a delimiter and a
+/// status query: one refusal for the whole run (`TooLong`) and the query
+/// answered; a query sent straight after a run (no delimiter) is lost in
+/// it with one refusal, and asked again after a delimiter, answered.
+#[test]
+fn a_long_run_without_a_delimiter_costs_one_refusal_and_the_next_frame_is_answered() {
+    let mut b = Bench::new();
+    b.deliver();
+    b.inbox.clear();
+    let run = vec![0x55u8; 100_000];
+    let mut query = vec![0u8];
+    query.extend(frame(&HostMsg::StatusQuery));
+    b.dev.receive(&run);
+    b.dev.receive(&query);
+    b.deliver();
+    assert_eq!(b.errors().len(), 1, "{:?}", b.inbox);
+    assert!(matches!(b.inbox.last(), Some(DeviceMsg::Status(_))));
+    b.inbox.clear();
+    b.dev.receive(&run);
+    b.dev.receive(&frame(&HostMsg::StatusQuery));
+    b.deliver();
+    assert!(
+        matches!(
+            b.inbox[..],
+            [DeviceMsg::Error {
+                code: ErrorCode::TooLong,
+                ..
+            }]
+        ),
+        "{:?}",
+        b.inbox
+    );
+    b.dev.receive(&query);
+    b.deliver();
+    assert!(matches!(b.inbox.last(), Some(DeviceMsg::Status(_))));
+}
+
 mod random_bytes {
     use super::*;
     use proptest::prelude::*;

@@ -939,3 +939,41 @@ fn a_connection_after_noise_without_a_delimiter_is_answered_at_once() {
         assert!(st.bad_frames >= 1, "the noise was one bad frame: {st:?}");
     }
 }
+
+/// 100 kB of line noise without a delimiter mid-session, then `status`:
+/// the first query goes down with the noise (one refusal, `TooLong`), the
+/// sender asks again at once after a delimiter and is answered, well
+/// within its timeout (not after the 500 ms it waits on a silent link).
+#[test]
+fn status_after_a_run_of_noise_is_answered_within_the_timeout() {
+    let h = sim::start(1.0).unwrap();
+    let stream = h.connect().unwrap();
+    let mut noise = stream.try_clone().unwrap();
+    let mut s = Session::new(
+        Box::new(stream.try_clone().unwrap()),
+        Box::new(stream),
+        Recorder::none(),
+    );
+    s.status_within(T, |_| {}).unwrap();
+    noise.write_all(&vec![0x55u8; 100_000]).unwrap();
+    let t0 = Instant::now();
+    let mut refusals = Vec::new();
+    let st = s
+        .status_within(T, |m| {
+            if let DeviceMsg::Error { code, .. } = m {
+                refusals.push(*code)
+            }
+        })
+        .unwrap();
+    let took = t0.elapsed();
+    assert_eq!(
+        refusals,
+        vec![link::ErrorCode::TooLong],
+        "one refusal for the run"
+    );
+    assert!(st.bad_frames >= 1);
+    // At once: not after the 500 ms a silent query waits before it is
+    // asked again.
+    assert!(took < Duration::from_millis(300), "answered after {took:?}");
+    println!("status after 100 kB of noise answered in {took:?}");
+}
