@@ -977,3 +977,40 @@ fn status_after_a_run_of_noise_is_answered_within_the_timeout() {
     assert!(took < Duration::from_millis(300), "answered after {took:?}");
     println!("status after 100 kB of noise answered in {took:?}");
 }
+
+/// What the sender puts on the wire a point, reports off as it runs by
+/// default, against the controller on the host (the firmware's own
+/// session and credit): the 0.05 mm line and a CAM finishing pass
+/// (printed; status queries counted in). The figure to check against a
+/// wire's rate is the firmware's QEMU test's (`firmware/README.md`).
+#[test]
+fn bytes_a_point_the_sender_puts_on_the_wire() {
+    let line = std::env::temp_dir().join(format!("sender-sim-{}-line.csv", std::process::id()));
+    let rows: String = (0..2001)
+        .map(|i| format!("{:.2},0,0\n", i as f64 * 0.05))
+        .collect();
+    std::fs::write(&line, rows).unwrap();
+    for spec in [
+        line.to_str().unwrap().to_string(),
+        repo("tests/data/cam/surface_ball_end.ngc"),
+    ] {
+        let p = load(&spec);
+        let h = sim::start(10.0).unwrap();
+        let mut s = session(&h, Recorder::none());
+        let mut o = opts();
+        o.reports = false;
+        o.status_period = Duration::from_millis(200 / 10);
+        let hs = s.handshake(&o).unwrap();
+        let before = s.connection().bytes_sent();
+        let out = s.run(&p, &hs, &o, &mut NoActions, &mut Quiet);
+        assert_eq!(out.exit, Exit::Done, "{}", out.message);
+        let per = (s.connection().bytes_sent() - before) as f64 / p.points.len() as f64;
+        println!(
+            "{}: {} points, {per:.2} bytes a point from the sender",
+            p.name,
+            p.points.len()
+        );
+        assert!(per < 8.5, "{per:.2} bytes a point");
+    }
+    let _ = std::fs::remove_file(&line);
+}
