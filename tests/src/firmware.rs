@@ -90,9 +90,9 @@ pub fn on_grid(pts: &[PathPoint]) -> Vec<PathPoint> {
 /// The firmware's clock as the host sees it: the tick counter of every
 /// status received ([`Records`] feeds it), extrapolated to now at the
 /// rate it ran against the wall clock over the last 1.5 s. Under
-/// `-icount` QEMU's clock follows the emulation's speed (a third to a
-/// half of the wall clock's on a loaded machine, and slower while the
-/// guest is busy), so a pace in firmware time needs this. Monotonic;
+/// `-icount` QEMU's clock follows the emulation's speed (well behind the
+/// wall clock's on a loaded machine, and slower while the guest is
+/// busy), so a pace in firmware time needs this. Monotonic;
 /// before two statuses it assumes [`GuestClock::FIRST_RATE`], slower
 /// than any run measured, so a pipe paced by it starts too slow rather
 /// than too fast.

@@ -1116,15 +1116,15 @@ fn wire_programs() -> Vec<WireProgram> {
 /// `baud / 10` bytes a second through a bucket of 16 bytes (a UART's
 /// FIFO: idle time is not saved up for a burst) in the firmware's own
 /// time, not the wall clock's: QEMU runs under `-icount shift=0`, whose
-/// clock follows the emulation (a third to a half of the wall clock's,
+/// clock follows the emulation (well behind the wall clock's, and
 /// slower while the guest is busy), so the pipe reads the firmware's
 /// clock from the tick counter of the statuses the host polls (every
 /// 100 ms of firmware time, as a sender polls every 200 ms) and
 /// extrapolates it (`system_tests::firmware::GuestClock`). `-icount`
 /// stays because it keeps the firmware's clock its own: without it a
 /// loaded host starves the guest and its ticks fall behind the wall
-/// clock (0.83 of it, once, with two cores shared), and the motion with
-/// them, so a wall-clock pace would again be too fast for the motion. The pace is estimated, so the test checks it after the
+/// clock, and the motion with them, so a wall-clock pace would again be
+/// too fast for the motion (the rates measured: `firmware/README.md`). The pace is estimated, so the test checks it after the
 /// fact: bytes each way over each run against the wire's rate over the
 /// run's firmware time (the tick counter), at most 5 % over.
 ///
