@@ -19,6 +19,10 @@
 //! - probing: the probe input tripped mid-move through QEMU's USART2 (the
 //!   image's stand-in for its pins), the trip reported where the steps
 //!   were, the tool stopped under control short of the target;
+//! - the link at real wire rates: four programs at 115 200 and 921 600
+//!   baud through a pipe paced in the firmware's own time
+//!   (`system_tests::firmware::GuestClock`), bytes a point each way
+//!   printed; line noise without a delimiter skipped at the next one;
 //! - the cost benchmark (`firmware/src/bin/cost.rs`, 0.05 mm line, shapes,
 //!   with and without hold/override/starvation events) prints checksums
 //!   of its commanded positions, which the host recomputes with the same
