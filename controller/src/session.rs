@@ -137,6 +137,12 @@ impl Session {
         self.noise_suppressed
     }
 
+    /// Commands in the queue (accepted, not yet taken; void ones too).
+    fn queued(&self) -> u32 {
+        self.next_seq
+            .wrapping_sub(self.offset.wrapping_add(self.taken))
+    }
+
     /// The acknowledgement of everything accepted, with the credit.
     pub fn ack(&self) -> DeviceMsg {
         DeviceMsg::Ack {
@@ -522,14 +528,22 @@ impl DeviceLink {
                 return Some(code);
             }
         };
-        self.queue_reply(&reply, BACKGROUND_RESERVE);
+        // An acknowledgement or a status carries the credit: no update
+        // is due for what was taken before it.
+        let credit = matches!(reply, DeviceMsg::Ack { .. } | DeviceMsg::Status(_));
+        if self.queue_reply(&reply, BACKGROUND_RESERVE) && credit {
+            self.session.taken_since_ack = 0;
+        }
         None
     }
 
-    fn queue_reply(&mut self, msg: &DeviceMsg, keep: usize) {
-        if !self.tx.send(msg, keep) {
+    /// Whether it was queued.
+    fn queue_reply(&mut self, msg: &DeviceMsg, keep: usize) -> bool {
+        let sent = self.tx.send(msg, keep);
+        if !sent {
             self.session.tx_dropped = self.session.tx_dropped.wrapping_add(1);
         }
+        sent
     }
 
     fn handle(
@@ -733,11 +747,18 @@ impl DeviceLink {
     }
 
     /// Once a background pass (`busy`: it did work this pass): return the
-    /// credit of taken commands to the host, every [`CREDIT_BATCH`] taken
-    /// or as soon as the background has nothing else to do.
+    /// credit of taken commands to the host, every [`CREDIT_BATCH`] taken,
+    /// or once the queue has run dry with the background idle (the end of
+    /// a path: the host has the whole window for the next one). Not one
+    /// update per command taken: each costs the return wire a frame, and
+    /// a host short of credit (less than a batch, `link::client`'s
+    /// `MIN_BATCH`) still has most of the queue's commands here, so the
+    /// motion does not wait for a smaller update. Every acknowledgement
+    /// and status carries the credit too.
     pub fn poll(&mut self, busy: bool) {
         let n = self.session.taken_since_ack;
-        if (n >= CREDIT_BATCH || (n > 0 && !busy)) && self.tx.send(&self.session.ack(), 0) {
+        let due = n >= CREDIT_BATCH || (n > 0 && !busy && self.session.queued() == 0);
+        if due && self.tx.send(&self.session.ack(), 0) {
             self.session.taken_since_ack = 0;
         }
     }

@@ -4,7 +4,7 @@
 //! frames, a lossy link, the feeding policy, hold/resume/override and
 //! underrun, all without QEMU.
 
-use controller::settings::{CMD_CREDIT, SCHED_CAP};
+use controller::settings::{CMD_CREDIT, CREDIT_BATCH, SCHED_CAP};
 use controller::sim::VirtualDevice;
 use fuzzy_core::planner::MotionState;
 use fuzzy_core::units::{FeedMmPerMin, Point3Mm};
@@ -282,6 +282,49 @@ fn the_credit_bounds_the_queue_and_comes_back_as_the_background_takes_commands()
         "every point taken is in the scheduler or scheduled"
     );
     assert!(s.points_held as usize <= SCHED_CAP);
+}
+
+/// With the planner's reports off, the replies to a dense path are an
+/// acknowledgement a frame and a credit update every `CREDIT_BATCH`
+/// commands taken, not one a command: under 2 bytes a point back, and
+/// batches of at least a credit update's worth of points out.
+#[test]
+fn the_credit_comes_back_in_batches_not_a_command_at_a_time() {
+    let mut b = Bench::new();
+    b.send(&HostMsg::Reports { planner: false });
+    b.deliver();
+    let pts: Vec<Point3Mm> = line(2000, 0.05, 0.0)
+        .iter()
+        .map(|p| {
+            let [x, y, z] = p.to_bits().map(link::batch::to_grid);
+            Point3Mm::from_bits(x, y, z)
+        })
+        .collect();
+    let goal = pts.last().unwrap().to_bits();
+    b.inbox.clear();
+    b.path(&pts, true);
+    let (frames0, bytes0) = (b.sent, b.bytes_out);
+    let s = b.run_until(100_000, |s| s.motion == Motion::Idle && s.pos_mm == goal);
+    assert_eq!(s.underruns, 0);
+    let mut out = [0u8; FRAME_MAX];
+    let mut reply_bytes = 0;
+    let mut acks = 0;
+    for m in &b.inbox {
+        if !matches!(m, DeviceMsg::Status(_)) {
+            reply_bytes += link::encode_device(m, &mut out).unwrap();
+        }
+        acks += matches!(m, DeviceMsg::Ack { .. }) as u32;
+    }
+    let frames = (b.sent - frames0) as u32;
+    let per_point = reply_bytes as f64 / pts.len() as f64;
+    let out_per_point = (b.bytes_out - bytes0) as f64 / pts.len() as f64;
+    assert!(
+        acks <= frames + pts.len() as u32 / CREDIT_BATCH + 2,
+        "{acks} acknowledgements for {frames} frames"
+    );
+    assert!(per_point < 2.0, "{per_point:.2} bytes a point back");
+    assert!(out_per_point < 5.5, "{out_per_point:.2} bytes a point out");
+    println!("{out_per_point:.2} bytes a point out, {per_point:.2} back, {acks} acknowledgements");
 }
 
 #[test]
@@ -732,6 +775,43 @@ fn a_flood_of_noise_gets_rate_limited_replies_and_status_is_still_answered() {
         replies >= allowed / 2,
         "{replies}: refused frames are still answered"
     );
+}
+
+/// 100 kB of line noise without a delimiter, then a delimiter and a
+/// status query: one refusal for the whole run (`TooLong`) and the query
+/// answered; a query sent straight after a run (no delimiter) is lost in
+/// it with one refusal, and asked again after a delimiter, answered.
+#[test]
+fn a_long_run_without_a_delimiter_costs_one_refusal_and_the_next_frame_is_answered() {
+    let mut b = Bench::new();
+    b.deliver();
+    b.inbox.clear();
+    let run = vec![0x55u8; 100_000];
+    let mut query = vec![0u8];
+    query.extend(frame(&HostMsg::StatusQuery));
+    b.dev.receive(&run);
+    b.dev.receive(&query);
+    b.deliver();
+    assert_eq!(b.errors().len(), 1, "{:?}", b.inbox);
+    assert!(matches!(b.inbox.last(), Some(DeviceMsg::Status(_))));
+    b.inbox.clear();
+    b.dev.receive(&run);
+    b.dev.receive(&frame(&HostMsg::StatusQuery));
+    b.deliver();
+    assert!(
+        matches!(
+            b.inbox[..],
+            [DeviceMsg::Error {
+                code: ErrorCode::TooLong,
+                ..
+            }]
+        ),
+        "{:?}",
+        b.inbox
+    );
+    b.dev.receive(&query);
+    b.deliver();
+    assert!(matches!(b.inbox.last(), Some(DeviceMsg::Status(_))));
 }
 
 mod random_bytes {

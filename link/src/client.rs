@@ -510,6 +510,15 @@ impl Connection {
         self.writer.flush().map_err(LinkError::Io)
     }
 
+    /// Send a lone delimiter: whatever the controller's receiver holds
+    /// (line noise without a delimiter, a frame cut short) ends there, and
+    /// the next frame decodes; between frames it is an empty frame, which
+    /// the controller ignores. Sent before a request is asked again, as
+    /// the request before it may have been swallowed by such a run.
+    pub fn send_delimiter(&mut self) -> Result<(), LinkError> {
+        self.send_raw(&[crate::DELIMITER])
+    }
+
     /// Send queued commands as the credit allows; how many went.
     pub fn transmit(&mut self) -> Result<usize, LinkError> {
         let mut n = 0;
@@ -545,7 +554,10 @@ impl Connection {
         tries: u32,
         mut seen: impl FnMut(&DeviceMsg),
     ) -> Result<Status, LinkError> {
-        for _ in 0..tries {
+        for attempt in 0..tries {
+            if attempt > 0 {
+                self.send_delimiter()?;
+            }
             self.send(&HostMsg::StatusQuery)?;
             let deadline = Instant::now() + Duration::from_millis(500);
             while let Some(left) = deadline.checked_duration_since(Instant::now()) {
@@ -553,6 +565,12 @@ impl Connection {
                     Some(DeviceMsg::Status(s)) => {
                         seen(&DeviceMsg::Status(s));
                         return Ok(s);
+                    }
+                    // The query may have gone down with line noise: ask
+                    // again at once.
+                    Some(m @ DeviceMsg::Error { code, .. }) if code.is_line_noise() => {
+                        seen(&m);
+                        break;
                     }
                     Some(m) => seen(&m),
                     None => {}
@@ -571,7 +589,10 @@ impl Connection {
         mut pick: impl FnMut(&DeviceMsg) -> Option<T>,
         mut seen: impl FnMut(&DeviceMsg),
     ) -> Result<Result<T, ErrorCode>, LinkError> {
-        for _ in 0..tries {
+        for attempt in 0..tries {
+            if attempt > 0 {
+                self.send_delimiter()?;
+            }
             self.send(msg)?;
             let deadline = Instant::now() + Duration::from_millis(500);
             while let Some(left) = deadline.checked_duration_since(Instant::now()) {
@@ -583,6 +604,11 @@ impl Connection {
                     return Ok(Ok(t));
                 }
                 if let DeviceMsg::Error { code, .. } = m {
+                    // Line noise is not this request's refusal (it may
+                    // have gone down with it): ask again at once.
+                    if code.is_line_noise() {
+                        break;
+                    }
                     if !matches!(code, ErrorCode::OutOfSequence | ErrorCode::NoCredit) {
                         return Ok(Err(code));
                     }

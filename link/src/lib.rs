@@ -610,6 +610,24 @@ pub enum ErrorCode {
     OutputsOn,
 }
 
+impl ErrorCode {
+    /// Whether this refuses bytes that did not make a frame of either
+    /// side (line noise, a lost delimiter, a frame cut short): the frame
+    /// the peer meant to send may have been swallowed with them, so the
+    /// sender sends it again after a delimiter rather than taking this as
+    /// the frame's refusal.
+    pub fn is_line_noise(self) -> bool {
+        matches!(
+            self,
+            ErrorCode::Framing
+                | ErrorCode::TooLong
+                | ErrorCode::TooShort
+                | ErrorCode::Crc
+                | ErrorCode::Misdirected
+        )
+    }
+}
+
 /// Controller to host.
 #[derive(Serialize, Deserialize, Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -849,12 +867,16 @@ impl FrameReader {
     /// Take one byte. `None` while a frame is incomplete (and for empty
     /// frames, i.e. repeated delimiters); at a delimiter, the frame's
     /// message or why it was refused.
+    ///
+    /// Once a frame is known bad (too long, or not COBS), the rest of it
+    /// up to the delimiter costs a comparison a byte and gets one refusal
+    /// at that delimiter, however long the run.
     pub fn push<M: Message>(&mut self, byte: u8) -> Option<Result<M, ErrorCode>> {
         if byte != DELIMITER {
-            self.started = true;
             if self.overflow || self.broken {
                 return None;
             }
+            self.started = true;
             match self.cobs.feed(byte) {
                 Ok(cobs::DecodeResult::DataContinue(b)) => match self.buf.get_mut(self.len) {
                     Some(slot) => {
@@ -1201,6 +1223,28 @@ mod tests {
         assert_eq!(feed(&mut r, &[0]), vec![Err(ErrorCode::TooLong)]);
         // And the reader is in sync again.
         assert_eq!(feed(&mut r, &good), vec![Ok(HostMsg::Hold)]);
+    }
+
+    /// 100 kB of line noise without a delimiter: one refusal at the first
+    /// delimiter, and the frame after it decodes; a frame sent straight
+    /// after the run (no delimiter before it) is lost in the run, and its
+    /// resend after a delimiter decodes.
+    #[test]
+    fn a_long_run_without_a_delimiter_is_one_refusal_then_in_sync() {
+        let mut r = FrameReader::new();
+        let run = vec![0x55u8; 100_000];
+        assert_eq!(feed(&mut r, &run), vec![]);
+        let mut tail = vec![DELIMITER];
+        tail.extend(frame(&HostMsg::StatusQuery));
+        assert_eq!(
+            feed(&mut r, &tail),
+            vec![Err(ErrorCode::TooLong), Ok(HostMsg::StatusQuery)]
+        );
+        assert_eq!(feed(&mut r, &run), vec![]);
+        let swallowed = feed(&mut r, &frame(&HostMsg::StatusQuery));
+        assert_eq!(swallowed, vec![Err(ErrorCode::TooLong)]);
+        assert!(swallowed[0].unwrap_err().is_line_noise());
+        assert_eq!(feed(&mut r, &tail), vec![Ok(HostMsg::StatusQuery)]);
     }
 
     proptest! {

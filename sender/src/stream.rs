@@ -427,20 +427,39 @@ impl Session {
             .map_err(|e| Failure::new(Exit::LinkLost, e.to_string()))
     }
 
+    /// A lone delimiter on the wire (`Connection::send_delimiter`).
+    pub(crate) fn send_delimiter(&mut self) -> Result<(), Failure> {
+        self.conn
+            .send_delimiter()
+            .map_err(|e| Failure::new(Exit::LinkLost, e.to_string()))
+    }
+
     /// Ask for the status until one comes within `timeout` (every
-    /// 500 ms); other messages go to `seen`.
+    /// 500 ms, or at once after a refusal of line noise: the query may
+    /// have gone down with it; each query after the first follows a
+    /// delimiter); other messages go to `seen`.
     pub fn status_within(
         &mut self,
         timeout: Duration,
         mut seen: impl FnMut(&DeviceMsg),
     ) -> Result<Status, Failure> {
         let deadline = Instant::now() + timeout;
+        let mut again = false;
         loop {
+            if core::mem::replace(&mut again, true) {
+                self.send_delimiter()?;
+            }
             self.send(&HostMsg::StatusQuery)?;
             let ask_again = Instant::now() + Duration::from_millis(500);
             while let Some(left) = ask_again.checked_duration_since(Instant::now()) {
                 match self.recv(left.min(Duration::from_millis(50)))? {
                     Some(DeviceMsg::Status(s)) => return Ok(s),
+                    // The query may have gone down with line noise: ask
+                    // again at once.
+                    Some(m @ DeviceMsg::Error { code, .. }) if code.is_line_noise() => {
+                        seen(&m);
+                        break;
+                    }
                     Some(m) => seen(&m),
                     None => {}
                 }
@@ -469,7 +488,11 @@ impl Session {
         mut seen: impl FnMut(&DeviceMsg),
     ) -> Result<Result<T, ErrorCode>, Failure> {
         let deadline = Instant::now() + timeout;
+        let mut resend = false;
         loop {
+            if core::mem::replace(&mut resend, true) {
+                self.send_delimiter()?;
+            }
             self.send(msg)?;
             let again = Instant::now() + Duration::from_millis(500);
             while let Some(left) = again.checked_duration_since(Instant::now()) {
@@ -480,6 +503,12 @@ impl Session {
                     return Ok(Ok(t));
                 }
                 if let DeviceMsg::Error { code, .. } = m {
+                    // Line noise is not this request's refusal (it may
+                    // have gone down with it): ask again at once.
+                    if code.is_line_noise() {
+                        seen(&m);
+                        break;
+                    }
                     if !matches!(code, ErrorCode::OutOfSequence | ErrorCode::NoCredit) {
                         return Ok(Err(code));
                     }

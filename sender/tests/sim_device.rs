@@ -939,3 +939,78 @@ fn a_connection_after_noise_without_a_delimiter_is_answered_at_once() {
         assert!(st.bad_frames >= 1, "the noise was one bad frame: {st:?}");
     }
 }
+
+/// 100 kB of line noise without a delimiter mid-session, then `status`:
+/// the first query goes down with the noise (one refusal, `TooLong`), the
+/// sender asks again at once after a delimiter and is answered, well
+/// within its timeout (not after the 500 ms it waits on a silent link).
+#[test]
+fn status_after_a_run_of_noise_is_answered_within_the_timeout() {
+    let h = sim::start(1.0).unwrap();
+    let stream = h.connect().unwrap();
+    let mut noise = stream.try_clone().unwrap();
+    let mut s = Session::new(
+        Box::new(stream.try_clone().unwrap()),
+        Box::new(stream),
+        Recorder::none(),
+    );
+    s.status_within(T, |_| {}).unwrap();
+    noise.write_all(&vec![0x55u8; 100_000]).unwrap();
+    let t0 = Instant::now();
+    let mut refusals = Vec::new();
+    let st = s
+        .status_within(T, |m| {
+            if let DeviceMsg::Error { code, .. } = m {
+                refusals.push(*code)
+            }
+        })
+        .unwrap();
+    let took = t0.elapsed();
+    assert_eq!(
+        refusals,
+        vec![link::ErrorCode::TooLong],
+        "one refusal for the run"
+    );
+    assert!(st.bad_frames >= 1);
+    // At once: not after the 500 ms a silent query waits before it is
+    // asked again.
+    assert!(took < Duration::from_millis(300), "answered after {took:?}");
+    println!("status after 100 kB of noise answered in {took:?}");
+}
+
+/// What the sender puts on the wire a point, reports off as it runs by
+/// default, against the controller on the host (the firmware's own
+/// session and credit): the 0.05 mm line and a CAM finishing pass
+/// (printed; status queries counted in). The figure to check against a
+/// wire's rate is the firmware's QEMU test's (`firmware/README.md`).
+#[test]
+fn bytes_a_point_the_sender_puts_on_the_wire() {
+    let line = std::env::temp_dir().join(format!("sender-sim-{}-line.csv", std::process::id()));
+    let rows: String = (0..2001)
+        .map(|i| format!("{:.2},0,0\n", i as f64 * 0.05))
+        .collect();
+    std::fs::write(&line, rows).unwrap();
+    for spec in [
+        line.to_str().unwrap().to_string(),
+        repo("tests/data/cam/surface_ball_end.ngc"),
+    ] {
+        let p = load(&spec);
+        let h = sim::start(10.0).unwrap();
+        let mut s = session(&h, Recorder::none());
+        let mut o = opts();
+        o.reports = false;
+        o.status_period = Duration::from_millis(200 / 10);
+        let hs = s.handshake(&o).unwrap();
+        let before = s.connection().bytes_sent();
+        let out = s.run(&p, &hs, &o, &mut NoActions, &mut Quiet);
+        assert_eq!(out.exit, Exit::Done, "{}", out.message);
+        let per = (s.connection().bytes_sent() - before) as f64 / p.points.len() as f64;
+        println!(
+            "{}: {} points, {per:.2} bytes a point from the sender",
+            p.name,
+            p.points.len()
+        );
+        assert!(per < 8.5, "{per:.2} bytes a point");
+    }
+    let _ = std::fs::remove_file(&line);
+}

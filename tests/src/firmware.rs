@@ -3,9 +3,13 @@
 //! (`link::client::Connection`: sequence numbers, credit, go-back-N), and
 //! record what it reports.
 
+use std::collections::VecDeque;
+use std::io::{Read, Write};
+use std::os::unix::net::UnixStream;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use std::sync::OnceLock;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{mpsc, Arc, Mutex, OnceLock};
 use std::thread;
 use std::time::{Duration, Instant};
 
@@ -83,32 +87,169 @@ pub fn on_grid(pts: &[PathPoint]) -> Vec<PathPoint> {
         .collect()
 }
 
+/// The firmware's clock as the host sees it: the tick counter of every
+/// status received ([`Records`] feeds it), extrapolated to now at the
+/// rate it ran against the wall clock over the last 1.5 s. Under
+/// `-icount` QEMU's clock follows the emulation's speed (well behind the
+/// wall clock's on a loaded machine, and slower while the guest is
+/// busy), so a pace in firmware time needs this. Monotonic;
+/// before two statuses it assumes [`GuestClock::FIRST_RATE`], slower
+/// than any run measured, so a pipe paced by it starts too slow rather
+/// than too fast.
+#[derive(Clone)]
+pub struct GuestClock(Arc<Mutex<ClockState>>);
+
+struct ClockState {
+    tick_hz: f64,
+    /// (arrival, firmware seconds) of recent statuses.
+    samples: VecDeque<(Instant, f64)>,
+    /// The last reading handed out.
+    last: f64,
+    /// Where readings start before any status.
+    t0: Instant,
+}
+
+impl GuestClock {
+    /// The rate (firmware seconds a wall second) assumed before two
+    /// statuses.
+    pub const FIRST_RATE: f64 = 0.2;
+    /// Statuses older than this (wall) are not used for the rate.
+    const WINDOW: Duration = Duration::from_millis(1500);
+
+    fn new() -> Self {
+        GuestClock(Arc::new(Mutex::new(ClockState {
+            tick_hz: 1000.0,
+            samples: VecDeque::new(),
+            last: 0.0,
+            t0: Instant::now(),
+        })))
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, ClockState> {
+        self.0.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// The tick rate (from the hello).
+    pub fn set_tick_hz(&self, hz: u32) {
+        self.lock().tick_hz = hz.max(1) as f64;
+    }
+
+    /// A status with tick counter `ticks` arrived now.
+    pub fn observe(&self, ticks: u32) {
+        let mut c = self.lock();
+        let now = Instant::now();
+        let t = ticks as f64 / c.tick_hz;
+        c.samples.push_back((now, t));
+        while c.samples.len() > 2 && now.duration_since(c.samples[0].0) > Self::WINDOW {
+            c.samples.pop_front();
+        }
+    }
+
+    /// Firmware seconds a wall second, as last measured.
+    pub fn rate(&self) -> f64 {
+        Self::rate_of(&self.lock())
+    }
+
+    fn rate_of(c: &ClockState) -> f64 {
+        match (c.samples.front(), c.samples.back()) {
+            (Some(a), Some(b)) if b.0.duration_since(a.0) >= Duration::from_millis(100) => {
+                ((b.1 - a.1) / b.0.duration_since(a.0).as_secs_f64()).clamp(0.01, 2.0)
+            }
+            _ => Self::FIRST_RATE,
+        }
+    }
+
+    /// Firmware seconds now (estimated; never decreasing).
+    pub fn now_s(&self) -> f64 {
+        let mut c = self.lock();
+        let rate = Self::rate_of(&c);
+        let est = match c.samples.back() {
+            Some(&(at, t)) => t + at.elapsed().as_secs_f64() * rate,
+            None => c.t0.elapsed().as_secs_f64() * rate,
+        };
+        c.last = c.last.max(est);
+        c.last
+    }
+}
+
+/// Bytes through each direction of a paced pipe so far.
+#[derive(Clone, Default)]
+pub struct WireCount {
+    /// Host to firmware.
+    pub to_device: Arc<AtomicU64>,
+    /// Firmware to host.
+    pub to_host: Arc<AtomicU64>,
+}
+
+/// Bytes a paced pipe lets through at once, at most: a UART's receive
+/// FIFO's worth. Time the pipe is idle (boot, handshake, a host waiting
+/// for credit) is not saved up beyond it.
+pub const WIRE_BURST_BYTES: f64 = 16.0;
+
 /// A byte pipe at a serial wire's rate (`baud / 10` bytes a second, 8N1),
-/// each way: the link as a real UART carries it. Returns the end for the
+/// each way, in the firmware's time ([`GuestClock`]): a token bucket of
+/// [`WIRE_BURST_BYTES`] refilled at that rate. Returns the end for the
 /// host; the other end is `device`.
-fn throttled(device: std::os::unix::net::UnixStream, baud: u32) -> std::os::unix::net::UnixStream {
-    let (host, inner) = std::os::unix::net::UnixStream::pair().expect("socket pair");
+fn throttled(device: UnixStream, baud: u32, clock: &GuestClock, count: &WireCount) -> UnixStream {
+    let (host, inner) = UnixStream::pair().expect("socket pair");
     let bytes_per_s = baud as f64 / 10.0;
-    let pace = move |mut from: std::os::unix::net::UnixStream,
-                     mut to: std::os::unix::net::UnixStream| {
-        use std::io::{Read, Write};
+    let pace = |from: UnixStream, to: UnixStream, passed: Arc<AtomicU64>| {
+        let clock = clock.clone();
+        let (tx, rx) = mpsc::channel::<Vec<u8>>();
         thread::spawn(move || {
-            let start = Instant::now();
-            let mut sent = 0f64;
-            let mut buf = [0u8; 256];
+            let mut from = from;
+            let mut buf = [0u8; 4096];
             while let Ok(n) = from.read(&mut buf) {
-                if n == 0 {
+                if n == 0 || tx.send(buf[..n].to_vec()).is_err() {
                     break;
                 }
-                for chunk in buf[..n].chunks(16) {
-                    sent += chunk.len() as f64;
-                    let due = Duration::from_secs_f64(sent / bytes_per_s);
-                    if let Some(wait) = due.checked_sub(start.elapsed()) {
-                        thread::sleep(wait);
+            }
+        });
+        thread::spawn(move || {
+            let mut to = to;
+            let mut pending = VecDeque::<u8>::new();
+            let mut open = true;
+            let mut tokens = 0f64;
+            let mut last = clock.now_s();
+            loop {
+                if pending.is_empty() {
+                    if !open {
+                        break;
                     }
-                    if to.write_all(chunk).is_err() {
+                    match rx.recv() {
+                        Ok(v) => pending.extend(v),
+                        Err(_) => break,
+                    }
+                }
+                loop {
+                    match rx.try_recv() {
+                        Ok(v) => pending.extend(v),
+                        Err(mpsc::TryRecvError::Empty) => break,
+                        Err(mpsc::TryRecvError::Disconnected) => {
+                            open = false;
+                            break;
+                        }
+                    }
+                }
+                let now = clock.now_s();
+                tokens = (tokens + (now - last) * bytes_per_s).min(WIRE_BURST_BYTES);
+                last = now;
+                let n = (tokens as usize).min(pending.len());
+                if n > 0 {
+                    let chunk: Vec<u8> = pending.drain(..n).collect();
+                    if to.write_all(&chunk).is_err() {
                         return;
                     }
+                    tokens -= n as f64;
+                    passed.fetch_add(n as u64, Ordering::Relaxed);
+                }
+                if !pending.is_empty() {
+                    // Until half a burst is due (in wall time at the
+                    // clock's rate): short enough that the bucket does
+                    // not overflow while the bytes wait.
+                    let due_s = (WIRE_BURST_BYTES / 2.0 - tokens).max(1.0) / bytes_per_s;
+                    let wall = due_s / clock.rate();
+                    thread::sleep(Duration::from_secs_f64(wall.clamp(50e-6, 2e-3)));
                 }
             }
             let _ = to.shutdown(std::net::Shutdown::Both);
@@ -117,8 +258,9 @@ fn throttled(device: std::os::unix::net::UnixStream, baud: u32) -> std::os::unix
     pace(
         device.try_clone().expect("clone"),
         inner.try_clone().expect("clone"),
+        count.to_host.clone(),
     );
-    pace(inner, device);
+    pace(inner, device, count.to_device.clone());
     host
 }
 
@@ -186,10 +328,45 @@ pub struct Records {
     pub machine: Vec<DeviceMsg>,
     /// Probing moves that ended (`DeviceMsg::Probed`).
     pub probed: Vec<DeviceMsg>,
+    /// Bytes of each kind of message received (their frames as sent).
+    pub bytes_in: BytesIn,
+    /// With a paced link: at each status received, the bytes through the
+    /// pipe so far (to the device, to the host).
+    pub wire_at_status: Vec<(u64, u64)>,
+    paced: Option<(GuestClock, WireCount)>,
+}
+
+/// Bytes of the messages received, by kind (each frame's length on the
+/// wire, delimiter included).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct BytesIn {
+    /// Acknowledgements (credit updates among them).
+    pub acks: u64,
+    /// Status replies.
+    pub statuses: u64,
+    /// Refusals.
+    pub errors: u64,
+    /// Everything else (the planner's reports, machine reports, hello).
+    pub other: u64,
 }
 
 impl Records {
     fn record(&mut self, m: &DeviceMsg) {
+        let mut frame = [0u8; link::FRAME_MAX];
+        let len = link::encode_device(m, &mut frame).unwrap_or(0) as u64;
+        match m {
+            DeviceMsg::Ack { .. } => self.bytes_in.acks += len,
+            DeviceMsg::Status(_) => self.bytes_in.statuses += len,
+            DeviceMsg::Error { .. } => self.bytes_in.errors += len,
+            _ => self.bytes_in.other += len,
+        }
+        if let (DeviceMsg::Status(s), Some((clock, count))) = (m, &self.paced) {
+            clock.observe(s.ticks);
+            self.wire_at_status.push((
+                count.to_device.load(Ordering::Relaxed),
+                count.to_host.load(Ordering::Relaxed),
+            ));
+        }
         match *m {
             DeviceMsg::Scheduled {
                 seq,
@@ -232,6 +409,8 @@ pub struct Firmware {
     conn: Connection,
     /// QEMU's USART2 socket (the input word), once connected.
     inputs: Option<std::os::unix::net::UnixStream>,
+    /// The link's socket path (QEMU's end is bound to it).
+    sock: PathBuf,
     inputs_path: PathBuf,
     /// What the firmware reported.
     pub rec: Records,
@@ -278,8 +457,9 @@ impl Firmware {
         Self::start_at(name, None)
     }
 
-    /// [`Firmware::start`] with the link at a serial wire's rate (`baud`),
-    /// or as fast as QEMU takes bytes (`None`).
+    /// [`Firmware::start`] with the link at a serial wire's rate (`baud`,
+    /// in the firmware's time: [`GuestClock`], [`WIRE_BURST_BYTES`]), or
+    /// as fast as QEMU takes bytes (`None`).
     pub fn start_at(name: &str, baud: Option<u32>) -> Firmware {
         let elf = firmware_elf();
         let dir = repo_root().join("firmware/target/qemu-logs");
@@ -299,8 +479,14 @@ impl Firmware {
             }
         };
         let _ = std::fs::remove_file(&sock);
+        let mut rec = Records::default();
         let stream = match baud {
-            Some(b) => throttled(stream, b),
+            Some(b) => {
+                let (clock, count) = (GuestClock::new(), WireCount::default());
+                let host = throttled(stream, b, &clock, &count);
+                rec.paced = Some((clock, count));
+                host
+            }
             None => stream,
         };
         let reader = stream.try_clone().expect("socket clone");
@@ -308,8 +494,9 @@ impl Firmware {
             child: Some(child),
             conn: Connection::new(Box::new(stream), Box::new(reader)),
             inputs: None,
+            sock: sock.clone(),
             inputs_path: inputs_socket(&sock),
-            rec: Records::default(),
+            rec,
             log,
         };
         let deadline = Instant::now() + Duration::from_secs(10);
@@ -317,7 +504,32 @@ impl Firmware {
             assert!(Instant::now() < deadline, "no hello from the firmware");
             fw.pump(Duration::from_millis(100));
         }
+        if let Some((clock, _)) = &fw.rec.paced {
+            clock.set_tick_hz(fw.hello().tick_hz);
+        }
         fw
+    }
+
+    /// Bytes sent that QEMU has not yet taken from the link's socket (the
+    /// receive queue of QEMU's end, as `ss -x` reports it; `None` if it
+    /// cannot be read): QEMU's USART takes one byte at a time, as the
+    /// firmware reads the last.
+    pub fn unread_by_firmware(&self) -> Option<u64> {
+        let out = Command::new("ss").args(["-xHn"]).output().ok()?;
+        let text = String::from_utf8_lossy(&out.stdout);
+        let path = self.sock.to_str()?;
+        // `u_str ESTAB <recv-q> <send-q> <local path> …`: QEMU's end is
+        // the one bound to the path.
+        text.lines().find_map(|l| {
+            let f: Vec<&str> = l.split_whitespace().collect();
+            (f.get(4) == Some(&path)).then(|| f.get(2)?.parse().ok())?
+        })
+    }
+
+    /// With a paced link ([`Firmware::start_at`] with a baud rate): the
+    /// firmware's clock as the pipe paces by it.
+    pub fn guest_clock(&self) -> Option<GuestClock> {
+        self.rec.paced.as_ref().map(|(c, _)| c.clone())
     }
 
     fn fail(&mut self, e: LinkError) -> ! {
@@ -579,5 +791,62 @@ impl Drop for Firmware {
             let _ = c.wait();
         }
         let _ = std::fs::remove_file(&self.inputs_path);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::atomic::AtomicBool;
+
+    /// Reads `n` bytes from `s`; the time it took.
+    fn read_n(s: &mut UnixStream, n: usize) -> Duration {
+        let t = Instant::now();
+        let mut buf = vec![0u8; n];
+        s.read_exact(&mut buf).expect("the pipe's bytes");
+        t.elapsed()
+    }
+
+    /// The paced pipe against a firmware clock at half the wall clock's
+    /// rate (statuses every 10 ms): 20 kB take the wire's time in the
+    /// firmware's clock, each way; after an idle second, 1000 bytes take
+    /// the wire's time less one burst (nothing saved up).
+    #[test]
+    fn the_pipe_keeps_the_wire_rate_in_firmware_time_and_saves_up_no_burst() {
+        let clock = GuestClock::new();
+        let stop = Arc::new(AtomicBool::new(false));
+        let (c, halt, t0) = (clock.clone(), stop.clone(), Instant::now());
+        let ticker = thread::spawn(move || {
+            while !halt.load(Ordering::Relaxed) {
+                c.observe((t0.elapsed().as_secs_f64() * 500.0) as u32);
+                thread::sleep(Duration::from_millis(10));
+            }
+        });
+        let (device, mut far) = UnixStream::pair().expect("socket pair");
+        let count = WireCount::default();
+        let mut host = throttled(device, 921_600, &clock, &count);
+        thread::sleep(Duration::from_millis(300));
+        let wire_s = |bytes: f64| bytes / 92_160.0;
+        host.write_all(&[1u8; 20_000]).unwrap();
+        let up = read_n(&mut far, 20_000).as_secs_f64() * 0.5 / wire_s(20_000.0);
+        far.write_all(&[1u8; 20_000]).unwrap();
+        let down = read_n(&mut host, 20_000).as_secs_f64() * 0.5 / wire_s(20_000.0);
+        thread::sleep(Duration::from_secs(1));
+        host.write_all(&[2u8; 1000]).unwrap();
+        let after_idle =
+            read_n(&mut far, 1000).as_secs_f64() * 0.5 / wire_s(1000.0 - WIRE_BURST_BYTES);
+        stop.store(true, Ordering::Relaxed);
+        ticker.join().unwrap();
+        println!(
+            "wire times taken: {up:.3} up, {down:.3} down, {after_idle:.3} after an idle second"
+        );
+        for (what, r) in [("up", up), ("down", down), ("after idle", after_idle)] {
+            assert!(
+                (0.97..1.3).contains(&r),
+                "{what}: {r:.3} of the wire's time"
+            );
+        }
+        assert_eq!(count.to_device.load(Ordering::Relaxed), 21_000);
+        assert_eq!(count.to_host.load(Ordering::Relaxed), 20_000);
     }
 }
