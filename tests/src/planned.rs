@@ -134,7 +134,7 @@ pub fn replay(
                 let c = |hold, override_percent| Controls {
                     hold,
                     override_percent,
-                    force: None,
+                    ..Controls::default()
                 };
                 match event {
                     PlanEvent::EndPath => {
