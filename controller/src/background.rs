@@ -834,6 +834,33 @@ impl<'a> Background<'a> {
         busy
     }
 
+    /// The path before a machine command or a probing move, into the
+    /// planner: the waiting point, the scheduler's lookahead, the path's
+    /// end. `Some(whether it did work)` while any of it is left, `None`
+    /// once it is all in the planner.
+    fn drain_path_before<L: Mutex<T = DeviceLink>>(
+        &mut self,
+        link: &mut L,
+        notice: &mut impl FnMut(Notice),
+    ) -> Option<bool> {
+        if self.planning.waiting() {
+            return Some(self.push_pending(link, notice));
+        }
+        if self.feeder.is_draining() {
+            if let Some(s) = self.feeder.drain() {
+                self.take_point(&s, link, notice);
+            }
+            return Some(true);
+        }
+        if self.feeder.take_path_end() {
+            notice(Notice::PathScheduled);
+            let input = self.planning.end_path();
+            report(link, input, notice);
+            return Some(true);
+        }
+        None
+    }
+
     /// A machine command waits for the path before it to end (the
     /// scheduler drained, the planner done and the ring executed), then
     /// takes effect.
@@ -848,21 +875,8 @@ impl<'a> Background<'a> {
         if !room {
             return false;
         }
-        if self.planning.waiting() {
-            return self.push_pending(link, notice);
-        }
-        if self.feeder.is_draining() {
-            // The points before it.
-            if let Some(s) = self.feeder.drain() {
-                self.take_point(&s, link, notice);
-            }
-            return true;
-        }
-        if self.feeder.take_path_end() {
-            notice(Notice::PathScheduled);
-            let input = self.planning.end_path();
-            report(link, input, notice);
-            return true;
+        if let Some(busy) = self.drain_path_before(link, notice) {
+            return busy;
         }
         // Done for the ring's depth in a row: the tick executed the stop.
         let done = self.planning.path_ended() && self.planning.state() == MotionState::Done;

@@ -79,20 +79,8 @@ impl Background<'_> {
         match p.stage {
             Stage::Before { mut at } => {
                 // The path before it, as for a machine command.
-                if self.planning.waiting() {
-                    return self.push_pending(link, notice);
-                }
-                if self.feeder.is_draining() {
-                    if let Some(s) = self.feeder.drain() {
-                        self.take_point(&s, link, notice);
-                    }
-                    return true;
-                }
-                if self.feeder.take_path_end() {
-                    notice(Notice::PathScheduled);
-                    let input = self.planning.end_path();
-                    report(link, input, notice);
-                    return true;
+                if let Some(busy) = self.drain_path_before(link, notice) {
+                    return busy;
                 }
                 let done = self.planning.path_ended() && self.planning.state() == MotionState::Done;
                 if !done {
