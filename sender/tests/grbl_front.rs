@@ -26,6 +26,15 @@ fn rig_with(
     speed: f64,
     setup: impl FnOnce(&mut controller::sim::VirtualDevice) + Send + 'static,
 ) -> Rig {
+    rig_full(speed, setup, GcodeSettings::default())
+}
+
+/// [`rig_with`], the interpreter set by `gcode`.
+fn rig_full(
+    speed: f64,
+    setup: impl FnOnce(&mut controller::sim::VirtualDevice) + Send + 'static,
+    gcode: GcodeSettings,
+) -> Rig {
     let h = sim::start_with(speed, setup).unwrap();
     let s = h.connect().unwrap();
     let mut session = Session::new(
@@ -44,7 +53,7 @@ fn rig_with(
         hs.status,
         hs.machine,
         hs.credit_size,
-        GcodeSettings::default(),
+        gcode,
         feed_max,
     )
     .unwrap();
@@ -571,6 +580,106 @@ fn a_manual_tool_change_with_a_tool_length_probe() {
     r.until(Duration::from_secs(10), |o| count(o, "ok\r\n") == 2);
     let s = r.idle(Duration::from_secs(20));
     assert!(mpos(&s)[2].abs() < 1e-9, "{s}");
+}
+
+/// Grbl's startup lines: `$N0=` runs the line and keeps it, `$N` lists
+/// them, a bad one is refused and not kept, and after a soft reset the
+/// welcome is followed by `>line:ok` with the line in force.
+#[test]
+fn startup_lines_run_after_the_welcome() {
+    let mut r = rig(10.0);
+    r.until(Duration::from_secs(1), |o| o.contains("Grbl"));
+    r.send(b"$N0=G20 G91\n");
+    assert_eq!(
+        r.until(Duration::from_secs(2), |o| o.contains("ok")),
+        "ok\r\n"
+    );
+    r.send(b"$N1=G1 X\n");
+    let e = r.until(Duration::from_secs(2), |o| o.contains("error"));
+    assert!(e.contains("error:"), "{e}");
+    r.send(b"$N\n");
+    let l = r.until(Duration::from_secs(2), |o| o.contains("ok"));
+    assert_eq!(
+        l, "$N0=G20G91\r\n$N1=\r\nok\r\n",
+        "kept as Grbl keeps it, cleaned"
+    );
+    r.send(b"G21 G90\n");
+    r.until(Duration::from_secs(2), |o| o.contains("ok"));
+    r.send(&[0x18]);
+    let w = r.until(Duration::from_secs(2), |o| o.contains(">G20G91:ok"));
+    assert!(w.find("Grbl").unwrap() < w.find(">G20").unwrap(), "{w}");
+    r.send(b"$G\n");
+    let g = r.until(Duration::from_secs(2), |o| o.contains("ok"));
+    assert!(g.contains("G20") && g.contains("G91"), "{g}");
+}
+
+/// With a `.var` file the startup lines are kept beside it and run at
+/// the next start; `$RST=*` clears them.
+#[test]
+fn startup_lines_are_kept_across_restarts_beside_the_var_file() {
+    let dir = std::env::temp_dir().join(format!("fuzzy-startup-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let settings = GcodeSettings {
+        var_file: Some(dir.join("front.var")),
+        ..GcodeSettings::default()
+    };
+    let mut r = rig_full(10.0, |_| {}, settings.clone());
+    r.until(Duration::from_secs(1), |o| o.contains("Grbl"));
+    r.send(b"$N1=G55\n");
+    r.until(Duration::from_secs(2), |o| o.contains("ok"));
+    drop(r);
+    let mut r = rig_full(10.0, |_| {}, settings.clone());
+    let w = r.until(Duration::from_secs(2), |o| o.contains(">G55:ok"));
+    assert!(w.contains("Grbl"), "{w}");
+    r.send(b"$RST=*\n");
+    r.until(Duration::from_secs(10), |o| o.contains("ok"));
+    drop(r);
+    let mut r = rig_full(10.0, |_| {}, settings);
+    r.send(b"$N\n");
+    let l = r.until(Duration::from_secs(2), |o| o.contains("ok"));
+    assert!(
+        l.contains("$N0=\r\n$N1=\r\nok") && !l.contains(">G55"),
+        "{l}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `$RST=#` zeroes G54-G59, G28 and G30; `$RST=$` puts every setting
+/// back to its default (the controller's and the front's), as
+/// `settings_restore` does.
+#[test]
+fn restore_resets_offsets_and_settings() {
+    let mut r = rig(10.0);
+    r.until(Duration::from_secs(1), |o| o.contains("Grbl"));
+    r.send(b"$$\n");
+    let defaults = r.until(Duration::from_secs(3), |o| o.contains("ok"));
+    r.send(b"G10 L2 P1 X5 Y6 Z7\nG10 L2 P3 X1\n#5161=2\n$0=5\n$10=2\n$30=2000\n$31=1500\n");
+    r.until(Duration::from_secs(5), |o| count(o, "ok\r\n") == 7);
+    r.send(b"$#\n");
+    let p = r.until(Duration::from_secs(2), |o| o.contains("ok"));
+    assert!(
+        p.contains("[G54:5.000,6.000,7.000]") && p.contains("[G28:2.000,"),
+        "{p}"
+    );
+    r.send(b"$RST=#\n");
+    let a = r.until(Duration::from_secs(5), |o| o.contains("ok"));
+    assert!(a.contains("[MSG:Restoring defaults]"), "{a}");
+    r.send(b"$#\n");
+    let p = r.until(Duration::from_secs(2), |o| o.contains("ok"));
+    for c in ["G54", "G56", "G28", "G30"] {
+        assert!(p.contains(&format!("[{c}:0.000,0.000,0.000]")), "{p}");
+    }
+    r.send(b"$RST=$\n");
+    let a = r.until(Duration::from_secs(10), |o| {
+        o.contains("ok") || o.contains("error")
+    });
+    assert!(
+        a.contains("[MSG:Restoring defaults]") && a.contains("ok"),
+        "{a}"
+    );
+    r.send(b"$$\n");
+    let now = r.until(Duration::from_secs(3), |o| o.contains("ok"));
+    assert_eq!(now, defaults);
 }
 
 /// A sender's side scripted in time: bytes handed over once due, what

@@ -40,7 +40,7 @@ use link::{AlarmCode, DeviceMsg, HostMsg, MachineStatus, Motion, SpindleDir, Sta
 
 use crate::exit::Failure;
 use crate::grbl::codes::{alarm_of, interp_error, ErrorCode, Feedback};
-use crate::grbl::command::{self, Command, Jog};
+use crate::grbl::command::{self, Command, Jog, Restore, STARTUP_LINES};
 use crate::grbl::input::{Event, Line, Realtime, Receiver, RX_BUFFER_SIZE};
 use crate::grbl::report::{self, MachineState, Overrides, StatusReporter};
 use crate::grbl::settings::{self as grbl_settings, FrontSettings};
@@ -420,6 +420,11 @@ pub struct Front {
     reporter: StatusReporter,
     front: FrontSettings,
     probe: report::Probe,
+    /// Grbl's startup lines (`$N0`, `$N1`), run after the welcome.
+    startup: [String; STARTUP_LINES as usize],
+    /// Where they are kept across restarts: beside the interpreter's
+    /// `.var` file (`gcode.var_file`, `--var-file`), if any.
+    startup_file: Option<std::path::PathBuf>,
 }
 
 impl Front {
@@ -432,6 +437,7 @@ impl Front {
         gcode: GcodeSettings,
         feed_max_mm_per_min: f64,
     ) -> Result<Front, Failure> {
+        let gcode_var_file = gcode.var_file.clone();
         let mut interp = Interp::new(Arc::new(gcode), None)
             .map_err(|e| Failure::new(crate::exit::Exit::Input, format!("{e:#}")))?;
         interp.start_live();
@@ -443,6 +449,15 @@ impl Front {
             .to_bits();
         let now = Instant::now();
         let alarm = machine.alarm;
+        let startup_file = gcode_var_file.map(|p| {
+            let mut name = p.into_os_string();
+            name.push(".grbl-startup");
+            std::path::PathBuf::from(name)
+        });
+        let startup = startup_file
+            .as_deref()
+            .map(read_startup_lines)
+            .unwrap_or_default();
         Ok(Front {
             session,
             credit_size,
@@ -477,6 +492,8 @@ impl Front {
             reporter: StatusReporter::new(),
             front: FrontSettings::default(),
             probe: report::Probe::default(),
+            startup,
+            startup_file,
         })
     }
 
@@ -520,6 +537,122 @@ impl Front {
         if let Some(code) = self.alarm {
             self.report_alarm(code);
         }
+        self.run_startup_lines();
+    }
+
+    /// Grbl's `system_execute_startup`: each stored startup line through
+    /// the interpreter, answered `>line:ok` or `>line:error:N`; not in the
+    /// alarm state.
+    fn run_startup_lines(&mut self) {
+        if self.locked {
+            return;
+        }
+        for n in 0..self.startup.len() {
+            let line = self.startup[n].clone();
+            if line.is_empty() {
+                continue;
+            }
+            let answer = match self.run_quietly(&line) {
+                Ok(()) => report::ok(),
+                Err(e) => report::error(interp_error(&format!("{e:#}")).0),
+            };
+            self.out.push_str(&format!(">{line}:{answer}"));
+        }
+    }
+
+    /// One G-code line through the interpreter outside the sender's
+    /// stream (a startup line, a restore): its moves join the path as a
+    /// line's do; nothing is answered.
+    fn run_quietly(&mut self, text: &str) -> anyhow::Result<()> {
+        let mut interp = self.interp.take().expect("in place between lines");
+        let r = match interp.push_line(text) {
+            Ok(true) => {
+                let mut m = LinkMachine {
+                    front: self,
+                    io: &mut Detached,
+                    attached: false,
+                    warnings: Vec::new(),
+                    probed: None,
+                    probe_alarm: None,
+                    seen: Vec::new(),
+                    failure: None,
+                };
+                interp.run_with(&mut m).map(|_| ())
+            }
+            Ok(false) => Err(anyhow!("an O-word structure left open")),
+            Err(e) => Err(e),
+        };
+        self.wco_mm = interp.work_offset_mm();
+        self.interp = Some(interp);
+        r
+    }
+
+    /// `$RST=…` (`settings_restore`): the controller's settings to its
+    /// defaults (and the front's), the work offsets and G28/G30 to zero,
+    /// or both with the startup lines. The settings are written one at a
+    /// time, again while any was refused for a combination not yet
+    /// reached (`$31` below `$30`); what is still refused is reported.
+    fn restore(&mut self, what: Restore) -> Result<String, Failure> {
+        if matches!(what, Restore::Settings | Restore::All) {
+            self.front = FrontSettings::default();
+            self.reporter.flag_wco();
+            let defaults = controller::config::Config::DEFAULT;
+            let mut left: Vec<(u16, i64)> = self
+                .controller_settings()?
+                .into_iter()
+                .filter_map(|(id, v)| {
+                    let d = defaults.by_id(id).ok()?;
+                    (d != v).then_some((id, d))
+                })
+                .collect();
+            let mut last = String::new();
+            while !left.is_empty() {
+                let before = left.len();
+                let mut refused = Vec::new();
+                for (id, d) in left {
+                    if let Err(e) = self.session.set_setting(id, d, Duration::from_secs(3)) {
+                        last = format!("${id}: {}", e.message);
+                        refused.push((id, d));
+                    }
+                }
+                left = refused;
+                if left.len() == before {
+                    return Ok(report::error_with_message(
+                        ErrorCode::InvalidStatement,
+                        &last,
+                    ));
+                }
+            }
+        }
+        if matches!(what, Restore::Parameters | Restore::All) {
+            let mut lines: Vec<String> = (1..=6).map(|p| format!("G10 L2 P{p} X0 Y0 Z0")).collect();
+            lines.push("#5161=0 #5162=0 #5163=0 #5181=0 #5182=0 #5183=0".into());
+            for l in lines {
+                if let Err(e) = self.run_quietly(&l) {
+                    let (code, text) = interp_error(&format!("{e:#}"));
+                    return Ok(report::error_with_message(code, &text));
+                }
+            }
+            self.reporter.flag_wco();
+        }
+        if what == Restore::All {
+            for n in 0..self.startup.len() {
+                if let Err(e) = self.store_startup_line(n, String::new()) {
+                    return Ok(report::error_with_message(ErrorCode::InvalidStatement, &e));
+                }
+            }
+        }
+        Ok(report::feedback(Feedback::RestoreDefaults) + &report::ok())
+    }
+
+    /// Keep startup line `n` (and write the file, if there is one).
+    fn store_startup_line(&mut self, n: usize, line: String) -> Result<(), String> {
+        self.startup[n] = line;
+        if let Some(path) = &self.startup_file {
+            let text: String = self.startup.iter().map(|l| format!("{l}\n")).collect();
+            std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+        }
+        Ok(())
     }
 
     /// The sender went away (port closed, process killed): whatever moves
@@ -791,6 +924,7 @@ impl Front {
             if let Some(code) = self.alarm {
                 self.report_alarm(code);
             }
+            self.run_startup_lines();
         }
         Ok(())
     }
@@ -1033,11 +1167,36 @@ impl Front {
                 let text = self.set_setting(id, value)?;
                 self.answer(text, Release::Now);
             }
-            Command::Sleep
-            | Command::Restore(_)
-            | Command::SetBuildInfo(_)
-            | Command::StartupLines
-            | Command::SetStartupLine { .. } => {
+            Command::Restore(what) => {
+                let text = self.restore(what)?;
+                self.answer(text, Release::Now);
+            }
+            Command::StartupLines => {
+                let mut text: String = self
+                    .startup
+                    .iter()
+                    .enumerate()
+                    .map(|(n, l)| format!("$N{n}={l}\r\n"))
+                    .collect();
+                text.push_str(&report::ok());
+                self.answer(text, Release::Now);
+            }
+            Command::SetStartupLine { n, line } => {
+                // Grbl runs the line first and keeps it only if it ran.
+                let line = line.trim().to_string();
+                let text = match self.run_quietly(&line) {
+                    Err(e) => {
+                        let (code, text) = interp_error(&format!("{e:#}"));
+                        report::error_with_message(code, &text)
+                    }
+                    Ok(()) => match self.store_startup_line(usize::from(n), line) {
+                        Ok(()) => report::ok(),
+                        Err(e) => report::error_with_message(ErrorCode::InvalidStatement, &e),
+                    },
+                };
+                self.answer(text, Release::Now);
+            }
+            Command::Sleep | Command::SetBuildInfo(_) => {
                 // Kept by neither the controller nor the front.
                 self.answer(
                     report::message("not supported by this controller")
@@ -1303,6 +1462,17 @@ impl Front {
             Err(r) => Ok(report::error_with_message(r.code, &r.message)),
         }
     }
+}
+
+/// The startup lines kept in `path` (a line each; none if it is missing).
+fn read_startup_lines(path: &std::path::Path) -> [String; STARTUP_LINES as usize] {
+    let mut lines: [String; STARTUP_LINES as usize] = Default::default();
+    if let Ok(text) = std::fs::read_to_string(path) {
+        for (slot, l) in lines.iter_mut().zip(text.lines()) {
+            *slot = l.trim().to_string();
+        }
+    }
+    lines
 }
 
 /// Grbl's motion mode of the interpreter's (`None`: G80).
