@@ -763,13 +763,19 @@ impl DeviceLink {
         }
     }
 
-    /// The status reply, with the tick's state `exec`.
+    /// The status reply, with the tick's state `exec`. The motion state is
+    /// the executed tick's, except that a tick at rest while the
+    /// background has work (a path taken whose first setpoints are still
+    /// in the ring, a spin-up, a probing move about to start) reads
+    /// `Running`: `Idle` means nothing left to do, so that a host may
+    /// take it for the end of what it sent.
     pub fn status(&self, exec: &TickExecutor) -> Status {
         let (l, i) = (&self.session, &self.info);
         Status {
             motion: match exec.now.state {
                 _ if self.latch.phase() == Phase::Alarm => Motion::Alarm,
                 _ if i.homing => Motion::Homing,
+                MotionState::Idle | MotionState::Done if !i.idle => Motion::Running,
                 MotionState::Idle | MotionState::Done => Motion::Idle,
                 MotionState::Moving => Motion::Running,
                 MotionState::Holding => Motion::Held,

@@ -436,6 +436,34 @@ fn a_jog_after_a_jog_cancel_starts_where_the_tool_stopped() {
     assert_eq!(end[0], furthest, "{seen:?}");
 }
 
+/// From its `ok` to its end a jog reads `Jog`: a status the controller
+/// sent before the jog reached it (at rest) does not end it. So a jog
+/// cancel right after it cancels it, and the next jog is taken, not
+/// refused as "not idle" (cncjs's continuous jogging).
+#[test]
+fn a_jog_reads_jog_from_its_ok_to_its_end() {
+    for _ in 0..5 {
+        let mut r = rig(1.0);
+        r.until(Duration::from_secs(1), |o| o.contains("Grbl"));
+        r.send(b"$J=G91 X20 F600\n");
+        r.until(Duration::from_secs(2), |o| o.contains("ok"));
+        let t0 = Instant::now();
+        while t0.elapsed() < Duration::from_millis(150) {
+            let s = r.status();
+            assert!(s.starts_with("<Jog"), "{s}");
+        }
+        r.send(&[0x85]);
+        r.send(b"$J=G91 Y1 F600\n");
+        let out = r.until(Duration::from_secs(2), |o| {
+            o.contains("ok") || o.contains("error")
+        });
+        assert!(!out.contains("error"), "{out}");
+        let s = r.idle(Duration::from_secs(20));
+        let p = mpos(&s);
+        assert!(p[0] < 5.0 && p[1] == 1.0, "{s}");
+    }
+}
+
 #[test]
 fn real_time_bytes_written_as_utf8_characters_act() {
     // cncjs and bCNC write 0x85 and the overrides as strings: C2 85, C2 91.
@@ -680,6 +708,56 @@ fn restore_resets_offsets_and_settings() {
     r.send(b"$$\n");
     let now = r.until(Duration::from_secs(3), |o| o.contains("ok"));
     assert_eq!(now, defaults);
+}
+
+/// `$H` against the simulated switches (X 3, Y 5, Z 2 mm, max ends):
+/// `Home` while it runs, its `ok` only once the cycle has ended (Grbl
+/// answers `$H` after `mc_homing_cycle`), the tool at −pull-off; `$H`
+/// with homing off is refused with a message.
+#[test]
+fn homing_answers_once_the_cycle_has_ended() {
+    let mut r = rig_with(10.0, |d| {
+        for (axis, at_mm) in [(0, 3.0), (1, 5.0), (2, 2.0)] {
+            d.switches.push(controller::sim::SimSwitch {
+                axis,
+                max: true,
+                at_steps: (at_mm * 100.0) as i64,
+            });
+        }
+    });
+    r.until(Duration::from_secs(1), |o| o.contains("Grbl"));
+    r.send(b"$22=1\n$26=2\n");
+    r.until(Duration::from_secs(3), |o| count(o, "ok\r\n") == 2);
+    r.send(b"$H\n");
+    let t0 = Instant::now();
+    let mut seen_home = false;
+    let mut out = String::new();
+    while !out.contains("ok") {
+        r.front.poll().unwrap();
+        out.push_str(&r.front.take_output());
+        if !out.contains("ok") {
+            r.send(b"?");
+            let got = r.until(Duration::from_secs(2), |o| o.contains('>'));
+            let (a, b) = (got.find('<').unwrap(), got.find('>').unwrap());
+            let s = got[a..=b].to_string();
+            // What came with it (the ok, before or after the report).
+            out.push_str(&got[..a]);
+            out.push_str(&got[b + 1..]);
+            if s.contains("<Home") {
+                seen_home = true;
+            }
+            // Before its ok: homing, or (the ok goes out at the next
+            // poll) at rest where the cycle ends.
+            assert!(
+                s.contains("<Home") || s.contains("<Idle|MPos:-1.000,-1.000,-1.000"),
+                "neither homing nor homed before its ok: {s}"
+            );
+        }
+        assert!(t0.elapsed() < Duration::from_secs(30), "{out}");
+    }
+    assert!(seen_home, "{out:?}");
+    let s = r.idle(Duration::from_secs(5));
+    assert_eq!(mpos(&s), [-1.0, -1.0, -1.0], "{s}");
 }
 
 /// A sender's side scripted in time: bytes handed over once due, what

@@ -50,6 +50,9 @@ use crate::stream::{at_rest, Session};
 /// Bytes of lines a sender may send beyond the receive buffer before the
 /// front stops reading it ([`Front::wants_bytes`]).
 pub const RX_BACKLOG_MAX: usize = 64 * 1024;
+/// How long after `$H` a machine status saying the controller is not
+/// homing is taken as from before the command reached it.
+const HOME_SEEN_WITHIN: Duration = Duration::from_secs(1);
 /// How often the controller's status is asked for.
 const STATUS_PERIOD: Duration = Duration::from_millis(40);
 /// How often its machine status (alarm, homing, spindle) is asked for.
@@ -407,6 +410,8 @@ pub struct Front {
     /// move starts where it stopped.
     resync: bool,
     homing: bool,
+    /// When `$H` was sent, until the controller reports its homing.
+    home_sent: Option<Instant>,
     alarm: Option<AlarmCode>,
     /// The alarm is reported; lines are refused until `$X`, `$H` or a
     /// reset.
@@ -481,6 +486,7 @@ impl Front {
             jog: false,
             resync: false,
             homing: false,
+            home_sent: None,
             alarm,
             locked: alarm.is_some(),
             status,
@@ -740,14 +746,29 @@ impl Front {
                     self.resync = false;
                     self.sync_position();
                 }
-                if self.jog && at_rest(&s, self.credit_size) && !self.path.open {
+                // A status from before the jog reached the controller is
+                // not its end.
+                if self.jog
+                    && at_rest(&s, self.credit_size)
+                    && !self.path.open
+                    && s.next_seq == self.queue_end()
+                {
                     self.jog = false;
                     self.sync_position();
                 }
             }
             DeviceMsg::Machine(ms) => {
                 self.machine = ms;
-                self.homing = ms.homing;
+                // A machine status asked before `$H` reached the controller
+                // does not end the cycle: until the controller says it homes
+                // (or the time for that has passed, a refusal), it does.
+                if ms.homing || ms.alarm.is_some() {
+                    self.home_sent = None;
+                }
+                let unseen = self
+                    .home_sent
+                    .is_some_and(|t| t.elapsed() < HOME_SEEN_WITHIN);
+                self.homing = ms.homing || unseen;
                 if let Some(code) = ms.alarm {
                     if self.alarm != Some(code) {
                         self.on_alarm(code);
@@ -759,6 +780,7 @@ impl Front {
             DeviceMsg::Alarm { code, .. } if self.alarm != Some(code) => self.on_alarm(code),
             DeviceMsg::Homed { pos_mm, .. } => {
                 self.homing = false;
+                self.home_sent = None;
                 self.interp()
                     .set_position_mm(pos_mm.map(crate::view::bits_f64));
                 self.path.here = pos_mm.map(link::batch::to_grid);
@@ -1018,7 +1040,8 @@ impl Front {
     }
 
     fn at_rest_now(&self) -> bool {
-        !self.path.open
+        !self.homing
+            && !self.path.open
             && self.session.conn.client().unacked() == 0
             && at_rest(&self.status, self.credit_size)
             && self.status.next_seq == self.queue_end()
@@ -1158,6 +1181,7 @@ impl Front {
             Command::Home { axes } => {
                 self.session.send(&HostMsg::Home { axes })?;
                 self.homing = true;
+                self.home_sent = Some(Instant::now());
                 self.alarm = None;
                 self.locked = false;
                 self.answer(report::ok(), Release::AtRest);
