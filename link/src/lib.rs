@@ -468,7 +468,10 @@ pub enum Motion {
 ///
 /// Motion figures (`motion`, `pos_mm`, `feed_mm_per_min`, `point_reached`,
 /// the tick counters) are those of the tick being executed; the planner
-/// runs a few ticks ahead of it.
+/// runs a few ticks ahead of it. `motion` is [`Motion::Idle`] only when
+/// nothing is left to do: a tick at rest while the controller has work
+/// queued behind it (a path just taken, a spin-up) reads
+/// [`Motion::Running`].
 #[derive(Serialize, Deserialize, Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Status {
