@@ -2332,6 +2332,19 @@ impl Interp {
         Ok(())
     }
 
+    /// A finished spline's points as moves at `cap`; the tool ends on
+    /// the last.
+    fn emit_curve(&mut self, pts: Vec<[f64; 3]>, cap: f64, line: u32) -> Result<()> {
+        let last = *pts
+            .last()
+            .unwrap_or(&[self.pos[0], self.pos[1], self.pos[2]]);
+        for p in pts {
+            self.out.push(p, Some(cap), line)?;
+        }
+        self.pos[..3].copy_from_slice(&last);
+        Ok(())
+    }
+
     fn nurbs_line(&mut self, b: &Blk) -> Result<()> {
         let line = b.line;
         let Some(c) = self.nurbs.as_ref() else {
@@ -2342,14 +2355,7 @@ impl Interp {
             let c = self.nurbs.take().unwrap_or_else(|| unreachable!());
             let cap = self.feed_cap(line, 0.0)?;
             let pts = c.finish(self.s.chord_tolerance_mm, self.out.room())?;
-            let last = *pts
-                .last()
-                .unwrap_or(&[self.pos[0], self.pos[1], self.pos[2]]);
-            for p in pts {
-                self.out.push(p, Some(cap), line)?;
-            }
-            self.pos[..3].copy_from_slice(&last);
-            return Ok(());
+            return self.emit_curve(pts, cap, line);
         }
         if b.g.iter().any(|g| *g != (5, 2)) || !b.m.is_empty() {
             bail!("line {line}: only control points may follow G5.2 until G5.3");
@@ -2442,13 +2448,7 @@ impl Interp {
             let c = self.nurbs6.take().unwrap_or_else(|| unreachable!());
             let cap = self.feed_cap(line, 0.0)?;
             let pts = c.finish(self.s.chord_tolerance_mm, self.out.room())?;
-            let last = *pts
-                .last()
-                .unwrap_or(&[self.pos[0], self.pos[1], self.pos[2]]);
-            for p in pts {
-                self.out.push(p, Some(cap), line)?;
-            }
-            self.pos[..3].copy_from_slice(&last);
+            self.emit_curve(pts, cap, line)?;
             self.motion = None;
             self.motion_initial = false;
         }

@@ -140,8 +140,6 @@ impl SenderIo for Detached {
 struct LinkMachine<'a> {
     front: &'a mut Front,
     io: &'a mut dyn SenderIo,
-    /// Whether `io` reaches the sender (not [`Detached`]).
-    attached: bool,
     /// The interpreter's warnings, for `[MSG:…]` lines.
     warnings: Vec<String>,
     /// A probing move's outcome, for `[PRB:…]` and `$#`.
@@ -159,7 +157,19 @@ fn grid(p: [f64; 3]) -> Option<[i64; 3]> {
     Some(q.to_bits().map(link::batch::to_grid))
 }
 
-impl LinkMachine<'_> {
+impl<'a> LinkMachine<'a> {
+    fn new(front: &'a mut Front, io: &'a mut dyn SenderIo) -> Self {
+        LinkMachine {
+            front,
+            io,
+            warnings: Vec::new(),
+            probed: None,
+            probe_alarm: None,
+            seen: Vec::new(),
+            failure: None,
+        }
+    }
+
     fn client(&mut self) -> &mut Client {
         self.front.session.conn.client_mut()
     }
@@ -182,7 +192,7 @@ impl LinkMachine<'_> {
     /// [`SenderIo`]): real-time commands act at once; a soft reset or the
     /// sender going away stops the move ([`Front::interrupted`]).
     fn pump_sender(&mut self) -> Result<(), Failure> {
-        if !self.attached {
+        if self.io.is_detached() {
             return Ok(());
         }
         let mut buf = [0u8; 512];
@@ -573,16 +583,8 @@ impl Front {
         let mut interp = self.interp.take().expect("in place between lines");
         let r = match interp.push_line(text) {
             Ok(true) => {
-                let mut m = LinkMachine {
-                    front: self,
-                    io: &mut Detached,
-                    attached: false,
-                    warnings: Vec::new(),
-                    probed: None,
-                    probe_alarm: None,
-                    seen: Vec::new(),
-                    failure: None,
-                };
+                let mut io = Detached;
+                let mut m = LinkMachine::new(self, &mut io);
                 interp.run_with(&mut m).map(|_| ())
             }
             Ok(false) => Err(anyhow!("an O-word structure left open")),
@@ -1252,17 +1254,7 @@ impl Front {
         let mut interp = self.interp.take().expect("in place between lines");
         self.wco_mm = interp.work_offset_mm();
         let before = self.path.last_seq;
-        let attached = !io.is_detached();
-        let mut m = LinkMachine {
-            front: self,
-            io,
-            attached,
-            warnings: Vec::new(),
-            probed: None,
-            probe_alarm: None,
-            seen: Vec::new(),
-            failure: None,
-        };
+        let mut m = LinkMachine::new(self, io);
         let r = interp.run_with(&mut m);
         let warnings = std::mem::take(&mut m.warnings);
         let (probed, probe_alarm) = (m.probed, m.probe_alarm);
